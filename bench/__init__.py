@@ -1,0 +1,1 @@
+"""The fmpy-driven virtual test lab: campaigns, excitation, noise, traces, scoring, CLI."""

@@ -1,0 +1,4 @@
+"""Identification methods that read trace files and a model description.
+
+Nothing here imports the harness's simulation code or reads truth.json.
+"""

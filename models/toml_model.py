@@ -1,0 +1,112 @@
+"""Structures described in TOML (format: docs/model-format.md).
+
+Every error names the offending field, e.g. ``elements[3].m``.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .elements import element_type
+from .errors import ModelError
+from .structure import SUPPORTS, Element, Structure
+
+TOP_KEYS = {"name", "description", "units", "unknown", "rayleigh", "nodes", "elements", "supports"}
+NODE_KEYS = {"id", "x", "y", "z"}
+SUPPORT_KEYS = {"node", "type", "fix"}
+
+
+def _check_keys(table: dict[str, Any], allowed: set[str], where: str) -> None:
+    extra = sorted(set(table) - allowed)
+    if extra:
+        raise ModelError(f"unknown key(s) {extra}; allowed: {sorted(allowed)}", field=f"{where}.{extra[0]}" if where else extra[0])
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ModelError(f"expected a number, got {value!r}", field=where)
+    return float(value)
+
+
+def _node(table: dict[str, Any], i: int) -> tuple[int, np.ndarray]:
+    where = f"nodes[{i}]"
+    _check_keys(table, NODE_KEYS, where)
+    if "id" not in table:
+        raise ModelError("missing node id", field=f"{where}.id")
+    node_id = table["id"]
+    if isinstance(node_id, bool) or not isinstance(node_id, int):
+        raise ModelError(f"node id must be an integer, got {node_id!r}", field=f"{where}.id")
+    coords = np.array([_number(table.get(axis, 0.0), f"{where}.{axis}") for axis in ("x", "y", "z")])
+    return node_id, coords
+
+
+def _element(table: dict[str, Any], i: int) -> Element:
+    where = f"elements[{i}]"
+    if "type" not in table:
+        raise ModelError("missing element type", field=f"{where}.type")
+    try:
+        etype = element_type(table["type"])
+    except ModelError as err:
+        raise ModelError(str(err).split(": ", 1)[1], field=f"{where}.type") from None
+    names = {spec.name for spec in etype.parameters}
+    _check_keys(table, {"type", "nodes", "dir"} | names, where)
+    nodes = table.get("nodes")
+    if not isinstance(nodes, list) or not all(isinstance(n, int) and not isinstance(n, bool) for n in nodes):
+        raise ModelError(f"expected a list of node ids, got {nodes!r}", field=f"{where}.nodes")
+    values = {name: _number(table[name], f"{where}.{name}") for name in names if name in table}
+    direction = table.get("dir")
+    if etype.directions is not None and direction is not None:
+        raise ModelError(f"{etype.name} has fixed directions {etype.directions}", field=f"{where}.dir")
+    return Element(etype, tuple(nodes), values, direction)
+
+
+def _support(table: dict[str, Any], i: int) -> tuple[int, str | tuple[str, ...]]:
+    where = f"supports[{i}]"
+    _check_keys(table, SUPPORT_KEYS, where)
+    if "node" not in table:
+        raise ModelError("missing node", field=f"{where}.node")
+    if "fix" in table:
+        return table["node"], tuple(table["fix"])
+    kind = table.get("type", "clamped")
+    if kind not in SUPPORTS:
+        raise ModelError(f"unknown support {kind!r}; known: {', '.join(SUPPORTS)}", field=f"{where}.type")
+    return table["node"], kind
+
+
+def structure_from_dict(data: dict[str, Any], default_name: str = "model") -> Structure:
+    """Build a :class:`Structure` from parsed TOML data (1-based indices in errors)."""
+    _check_keys(data, TOP_KEYS, "")
+    if not data.get("nodes"):
+        raise ModelError("a model needs at least one [[nodes]] entry", field="nodes")
+    if not data.get("elements"):
+        raise ModelError("a model needs at least one [[elements]] entry", field="elements")
+    nodes: dict[int, np.ndarray] = {}
+    for i, table in enumerate(data["nodes"], start=1):
+        node_id, coords = _node(table, i)
+        if node_id in nodes:
+            raise ModelError(f"node {node_id} defined twice", field=f"nodes[{i}].id")
+        nodes[node_id] = coords
+    elements = [_element(t, i) for i, t in enumerate(data["elements"], start=1)]
+    supports = dict(_support(t, i) for i, t in enumerate(data.get("supports", []), start=1))
+    rayleigh = data.get("rayleigh", [0.0, 0.0])
+    if not isinstance(rayleigh, list) or len(rayleigh) != 2:
+        raise ModelError("expected [alpha (1/s), beta (s)]", field="rayleigh")
+    return Structure(name=data.get("name", default_name), nodes=nodes, elements=elements,
+                     supports=supports,
+                     rayleigh=(_number(rayleigh[0], "rayleigh[0]"), _number(rayleigh[1], "rayleigh[1]")),
+                     unknown=tuple(data.get("unknown", ("mass", "stiffness"))))
+
+
+def load_structure(path: str | Path) -> Structure:
+    """Read a TOML model file; malformed TOML raises :class:`ModelError` with its line."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ModelError(f"malformed TOML: {err}", field=path.name) from None
+    except OSError as err:
+        raise ModelError(f"cannot read model file: {err.strerror}", field=str(path)) from None
+    return structure_from_dict(data, default_name=path.stem)
