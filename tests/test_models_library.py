@@ -67,3 +67,20 @@ def test_postulated_models_have_the_table_4_1_initial_error():
         mask = true != 0
         rms = np.sqrt(np.mean(((post[mask] - true[mask]) / true[mask]) ** 2))
         assert rms == pytest.approx(expected, abs=5e-4)
+
+
+def test_sparse_shift_invert_agrees_with_dense_on_a_large_free_beam():
+    from scipy.linalg import eigh
+
+    from models.analysis import DENSE_LIMIT
+    from models.library import beam
+
+    rng = np.random.default_rng(5)
+    n = 320
+    model = beam("long", list(rng.uniform(1, 8, n)), list(rng.uniform(1, 6, n)), float(n))
+    assert model.n_dof > DENSE_LIMIT
+    sparse = model.modes(8)
+    dense = eigh(model.stiffness().toarray(), model.mass().toarray(), eigvals_only=True,
+                 subset_by_index=[0, 7])
+    assert np.sum(sparse.lam == 0.0) == 2
+    np.testing.assert_allclose(sparse.lam[2:], dense[2:], rtol=1e-8)
