@@ -83,4 +83,10 @@ def test_sparse_shift_invert_agrees_with_dense_on_a_large_free_beam():
     dense = eigh(model.stiffness().toarray(), model.mass().toarray(), eigvals_only=True,
                  subset_by_index=[0, 7])
     assert np.sum(sparse.lam == 0.0) == 2
-    np.testing.assert_allclose(sparse.lam[2:], dense[2:], rtol=1e-8)
+    # dense LAPACK's absolute error is ~ eps x the largest eigenvalue, so the
+    # tiny low eigenvalues of a long beam agree only to about 1e-6
+    np.testing.assert_allclose(sparse.lam[2:], dense[2:], rtol=1e-5)
+    k, m = model.stiffness(), model.mass()
+    v = sparse.shapes[:, 2:]
+    residual = np.linalg.norm(k @ v - m @ v * sparse.lam[2:], axis=0) / np.linalg.norm(k @ v, axis=0)
+    assert residual.max() < 1e-8
