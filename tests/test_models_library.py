@@ -89,4 +89,4 @@ def test_sparse_shift_invert_agrees_with_dense_on_a_large_free_beam():
     k, m = model.stiffness(), model.mass()
     v = sparse.shapes[:, 2:]
     residual = np.linalg.norm(k @ v - m @ v * sparse.lam[2:], axis=0) / np.linalg.norm(k @ v, axis=0)
-    assert residual.max() < 1e-8
+    assert residual.max() < 1e-6
