@@ -11,7 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as la
+
+from .fmu.runtime import first_order, zoh
 
 
 @dataclass
@@ -33,20 +34,7 @@ class StateSpace:
 
         Without ``shapes`` the generalised coordinates are the DOF themselves.
         """
-        mass, damping, stiffness = (np.asarray(a, dtype=float) for a in (mass, damping, stiffness))
-        n = mass.shape[0]
-        phi = np.eye(n) if shapes is None else np.asarray(shapes, dtype=float)
-        minv_k = la.solve(mass, stiffness, assume_a="pos")
-        minv_c = la.solve(mass, damping, assume_a="pos")
-        minv_in = la.solve(mass, phi.T, assume_a="pos")
-        zero = np.zeros((n, n))
-        A = np.block([[zero, np.eye(n)], [-minv_k, -minv_c]])
-        B = np.vstack([np.zeros_like(minv_in), minv_in])
-        Cd = np.hstack([phi, np.zeros_like(phi)])
-        Cv = np.hstack([np.zeros_like(phi), phi])
-        Ca = phi @ A[n:]
-        Da = phi @ minv_in
-        return cls(A, B, Cd, Cv, Ca, Da)
+        return cls(*first_order(mass, damping, stiffness, shapes))
 
     @property
     def n_state(self) -> int:
@@ -55,12 +43,7 @@ class StateSpace:
     def discretize(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Exact ZOH matrices ``(Ad, Bd)`` for step ``dt`` (s), cached per step."""
         if dt not in self._zoh:
-            nx, nu = self.B.shape
-            aug = np.zeros((nx + nu, nx + nu))
-            aug[:nx, :nx] = self.A * dt
-            aug[:nx, nx:] = self.B * dt
-            e = la.expm(aug)
-            self._zoh[dt] = (e[:nx, :nx], e[:nx, nx:])
+            self._zoh[dt] = zoh(self.A, self.B, dt)
         return self._zoh[dt]
 
     def simulate(self, force: np.ndarray, dt: float, x0: np.ndarray | None = None
