@@ -1,0 +1,543 @@
+"""Campaign files (TOML): the structure under test and its tests.
+
+The format is described in ``docs/campaign-format.md``. :func:`load_campaign`
+checks everything that can be checked without simulating (structure, nodes,
+directions, times, noise, the FMU variable mapping of an external FMU); every
+error names the key and its line, e.g. ``ch3.toml:14: tests[1].duration: ...``.
+"""
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from models import STRUCTURES, ModalModel, Model, load_model
+from models.errors import UserError
+
+from .channels import QUANTITIES, Channel
+from .excitation import Excitation, Harmonic, Impulse, Initial, RandomForce, force_dofs, is_force
+from .external import BUILTIN, PLACEHOLDERS, QUANTITY_KEYS, VariableMap, closest, fmu_variables, pattern_fields
+from .noise import MODES, NoiseSpec, derived_seed
+from .toml_lines import Path as KeyPath
+from .toml_lines import key_lines, line_of
+
+TOP_KEYS = ("name", "description", "structure", "seed", "parameters", "mapping", "locations",
+            "truth", "check", "defaults", "tests")
+TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise")
+EXCITATION_KEYS = {
+    "harmonic": ("kind", "node", "dir", "amplitude", "omega", "phase", "ramp", "settle"),
+    "stepped-sine": ("kind", "node", "dir", "amplitude", "omegas", "phase", "ramp", "settle", "window"),
+    "impulse": ("kind", "node", "dir", "impulse", "time", "method"),
+    "random": ("kind", "node", "dir", "rms", "band", "seed"),
+    "initial": ("kind", "node", "dir", "displacement", "velocity"),
+}
+SENSOR_KEYS = ("nodes", "dirs", "quantities")
+NOISE_KEYS = ("sensor", "mode", "actuator_amplitude", "actuator_frequency", "seed")
+IMPULSE_METHODS = ("pulse", "initial-velocity")
+TEST_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+_REQUIRED = object()
+
+
+class CampaignError(UserError):
+    """A campaign file is invalid; ``field`` reads ``file:line: key``."""
+
+
+@dataclass(frozen=True)
+class TestSpec:
+    """One test: a simulation of ``duration`` s sampled every ``dt`` s with FMU
+    communication step ``step`` s (``dt`` a whole multiple of ``step``)."""
+
+    name: str
+    group: str
+    dt: float
+    step: float
+    duration: float
+    excitation: tuple[Excitation, ...]
+    channels: tuple[Channel, ...]
+    noise: NoiseSpec
+    repetitions: int
+    base_seed: int
+
+    @property
+    def n_samples(self) -> int:
+        return round(self.duration / self.dt) + 1
+
+    @property
+    def substeps(self) -> int:
+        """Communication steps per sampling interval."""
+        return round(self.dt / self.step)
+
+    @property
+    def force_dofs(self) -> list[tuple[int, str]]:
+        return force_dofs(self.excitation)
+
+    def seed(self, repetition: int) -> int:
+        """Noise seed of a repetition (see :mod:`bench.noise`)."""
+        return derived_seed(self.base_seed, self.name, repetition)
+
+    def trace_name(self, repetition: int) -> str:
+        """``<test>.h5``, or ``<test>.r003.h5`` when the test has repetitions."""
+        return f"{self.name}.h5" if self.repetitions == 1 else f"{self.name}.r{repetition:03d}.h5"
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A validated campaign. ``model`` is None for an external FMU (``fmu``)."""
+
+    name: str
+    path: Path
+    text: str
+    structure: str
+    model: Model | None
+    fmu: Path | None
+    tests: tuple[TestSpec, ...]
+    parameters: Mapping[str, float]
+    mapping: VariableMap
+    locations: Mapping[int, tuple[float, float, float]]
+    truth: Mapping[str, Any] | None
+    check: Mapping[str, Any]
+    seed: int
+    variables: tuple[tuple[KeyPath, str, str], ...] = field(repr=False)  # (key, role, FMU variable)
+    lines: Mapping[KeyPath, int] = field(repr=False, compare=False)
+
+    def location(self, node: int) -> tuple[float, float, float]:
+        """Node coordinates (m), padded to 3; NaN when unknown."""
+        if self.model is not None:
+            xyz = np.zeros(3)
+            coords = np.asarray(self.model.nodes[node], dtype=float)
+            xyz[:coords.size] = coords
+            return tuple(float(v) for v in xyz)
+        return self.locations.get(node, (math.nan,) * 3)
+
+    def error(self, key: KeyPath, message: str) -> CampaignError:
+        return _error(self.path, self.lines, key, message)
+
+    def check_variables(self, variables: Mapping[str, str], fmu_name: str) -> None:
+        """Every mapped variable must exist in the FMU (``variables``: name ->
+        causality); otherwise fail naming the key and the closest names."""
+        for key, role, name in self.variables:
+            if name not in variables:
+                near = closest(name, variables)
+                hint = f"; closest: {', '.join(near)}" if near else ""
+                raise self.error(key, f"{role}: no variable {name!r} in {fmu_name}{hint}")
+            if role.startswith("force") and variables[name] != "input":
+                raise self.error(key, f"{role}: {name!r} in {fmu_name} is not an input "
+                                      f"(causality {variables[name]})")
+
+
+def _error(path: Path, lines: Mapping[KeyPath, int], key: KeyPath, message: str) -> CampaignError:
+    shown = "".join(f"[{k + 1}]" if isinstance(k, int) else f".{k}" for k in key).lstrip(".")
+    line = line_of(lines, key)
+    return CampaignError(message, field=f"{path.name}:{line}: {shown}" if line else f"{path.name}: {shown}")
+
+
+class _Table:
+    """A TOML table with the key path each entry came from (for errors)."""
+
+    def __init__(self, reader: "_Reader", data: dict[str, Any], origin: dict[str, KeyPath], where: KeyPath):
+        self.reader, self.data, self.origin, self.where = reader, data, origin, where
+
+    def at(self, key: str) -> KeyPath:
+        return self.origin.get(key, self.where + (key,))
+
+    def error(self, key: str, message: str) -> CampaignError:
+        return self.reader.error(self.at(key), message)
+
+    def allow(self, allowed: tuple[str, ...], what: str) -> None:
+        for key in self.data:
+            if key not in allowed:
+                near = closest(key, allowed, 1)
+                hint = f" (did you mean {near[0]!r}?)" if near else ""
+                raise self.error(key, f"unknown key in {what}{hint}; allowed: {', '.join(allowed)}")
+
+    def get(self, key: str, default: Any = _REQUIRED) -> Any:
+        if key not in self.data:
+            if default is _REQUIRED:
+                raise self.reader.error(self.where + (key,), "missing (required)")
+            return default
+        return self.data[key]
+
+    def number(self, key: str, default: Any = _REQUIRED, low: float | None = None,
+               positive: bool = False) -> float:
+        value = self.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.error(key, f"expected a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.error(key, f"must be positive, got {value}")
+        if low is not None and value < low:
+            raise self.error(key, f"must be at least {low}, got {value}")
+        return float(value)
+
+    def integer(self, key: str, default: Any = _REQUIRED, low: int | None = None) -> int:
+        value = self.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(key, f"expected an integer, got {value!r}")
+        if low is not None and value < low:
+            raise self.error(key, f"must be at least {low}, got {value}")
+        return value
+
+    def string(self, key: str, default: Any = _REQUIRED, choices: tuple[str, ...] | None = None) -> str:
+        value = self.get(key, default)
+        if not isinstance(value, str):
+            raise self.error(key, f"expected a string, got {value!r}")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"{value!r} is not one of {', '.join(choices)}")
+        return value
+
+    def table(self, key: str) -> "_Table":
+        value = self.get(key, {})
+        if not isinstance(value, dict):
+            raise self.error(key, f"expected a table, got {value!r}")
+        return _Table(self.reader, value, {}, self.at(key))
+
+    def tables(self, key: str) -> list["_Table"]:
+        value = self.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.error(key, "expected an array of tables")
+        return [_Table(self.reader, v, {}, self.at(key) + (i,)) for i, v in enumerate(value)]
+
+
+class _Reader:
+    """Parses and validates one campaign text."""
+
+    def __init__(self, path: Path, text: str):
+        self.path = path
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as err:
+            raise CampaignError(str(err), field=path.name) from None
+        self.lines = key_lines(text)
+        self.top = _Table(self, data, {}, ())
+        self.variables: list[tuple[KeyPath, str, str]] = []
+
+    def error(self, key: KeyPath, message: str) -> CampaignError:
+        return _error(self.path, self.lines, key, message)
+
+    # ---- structure ---------------------------------------------------
+    def structure(self) -> tuple[str, Model | None, Path | None]:
+        ref = self.top.string("structure")
+        if ref in STRUCTURES:
+            return ref, load_model(ref), None
+        file = (self.path.parent / ref).resolve()
+        if not file.exists():
+            raise self.top.error("structure", f"unknown structure {ref!r}: not a built-in name "
+                                              f"({', '.join(STRUCTURES)}) and no file {file}")
+        if file.suffix == ".fmu":
+            return file.stem, None, file
+        try:
+            model = load_model(file)
+        except UserError as err:
+            raise self.top.error("structure", f"{ref}: {err}") from None
+        return model.name, model, None
+
+    def mapping(self, external: bool) -> VariableMap:
+        table = self.top.table("mapping")
+        if not table.data:
+            return BUILTIN
+        if not external:
+            raise self.top.error("mapping", "a mapping is only for external FMUs; built-in structures "
+                                            "use structbench's own variable names")
+        table.allow(QUANTITY_KEYS + ("table",), "mapping")
+        patterns = {}
+        for key in QUANTITY_KEYS:
+            if key in table.data:
+                pattern = table.string(key)
+                try:
+                    bad = pattern_fields(pattern) - PLACEHOLDERS
+                except ValueError as err:
+                    raise table.error(key, f"bad pattern {pattern!r}: {err}") from None
+                if bad:
+                    raise table.error(key, f"unknown placeholder(s) {sorted(bad)}; use {{node}} and {{dir}}")
+                patterns[key] = pattern
+        explicit = table.table("table")
+        return VariableMap(patterns, {k: explicit.string(k) for k in explicit.data})
+
+    def locations(self) -> dict[int, tuple[float, float, float]]:
+        table = self.top.table("locations")
+        out = {}
+        for key, value in table.data.items():
+            if not key.isdigit():
+                raise table.error(key, "node ids (integers) are the keys of [locations]")
+            if not isinstance(value, list) or not 1 <= len(value) <= 3 or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                raise table.error(key, f"expected 1 to 3 coordinates (m), got {value!r}")
+            out[int(key)] = tuple(float(v) for v in value) + (0.0,) * (3 - len(value))
+        return out
+
+    def parameters(self, model: Model | None, fmu: Path | None) -> dict[str, float]:
+        table = self.top.table("parameters")
+        values = {key: table.number(key) for key in table.data}
+        known = fmu_variables(fmu) if fmu is not None else builtin_parameters(model)
+        for key in values:
+            if key not in known:
+                near = closest(key, known)
+                raise table.error(key, f"no parameter {key!r}" + (f"; closest: {', '.join(near)}" if near else ""))
+        return values
+
+    # ---- tests -------------------------------------------------------
+    def tests(self, model: Model | None, locations: Mapping[int, Any], mapping: VariableMap,
+              seed: int) -> tuple[TestSpec, ...]:
+        defaults = self.top.table("defaults")
+        defaults.allow(tuple(k for k in TEST_KEYS if k != "name"), "defaults")
+        raw = self.top.tables("tests")
+        if not raw:
+            raise self.error(("tests",), "a campaign needs at least one [[tests]] entry")
+        specs: list[TestSpec] = []
+        for test in raw:
+            merged = {**defaults.data, **test.data}
+            origin = {**{k: ("defaults", k) for k in defaults.data}, **{k: test.where + (k,) for k in test.data}}
+            parsed = _TestReader(_Table(self, merged, origin, test.where), model, locations, mapping, seed, self)
+            for spec in parsed.specs():
+                if any(s.name == spec.name for s in specs):
+                    raise test.error("name", f"duplicate test name {spec.name!r}")
+                specs.append(spec)
+        return tuple(specs)
+
+    def want(self, key: KeyPath, mapping: VariableMap, quantity: str, node: int, direction: str) -> None:
+        """Record the FMU variable a (quantity, DOF) needs; fail if unmapped."""
+        name = mapping.variable(quantity, node, direction)
+        role = f"{quantity} at ({node}, {direction!r})"
+        if name is None:
+            raise self.error(key, f"{role}: no mapping for {quantity!r} (add mapping.{quantity} or a mapping.table entry)")
+        self.variables.append((key, role, name))
+
+
+class _TestReader:
+    """One ``[[tests]]`` entry (merged with ``[defaults]``) into TestSpecs."""
+
+    def __init__(self, table: _Table, model: Model | None, locations: Mapping[int, Any],
+                 mapping: VariableMap, seed: int, reader: _Reader):
+        self.t, self.model, self.locations, self.mapping, self.reader = table, model, locations, mapping, reader
+        table.allow(TEST_KEYS, "a test")
+        self.name = table.string("name")
+        if not TEST_NAME.match(self.name):
+            raise table.error("name", f"{self.name!r}: use letters, digits, '-' and '_' only")
+        self.dt = table.number("dt", positive=True)
+        self.step = table.number("step", self.dt, positive=True)
+        if self.dt < self.step * (1 - 1e-9):
+            raise table.error("dt", f"sampling interval {self.dt} s is shorter than the communication step "
+                                    f"{self.step} s (the FMU's outputs exist only at communication points)")
+        if abs(self.dt / self.step - round(self.dt / self.step)) > 1e-6:
+            raise table.error("dt", f"sampling interval {self.dt} s is not a whole number of communication "
+                                    f"steps ({self.step} s)")
+        self.repetitions = table.integer("repetitions", 1, low=1)
+        noise = table.table("noise")
+        self.noise = self._noise(noise, noise.integer("seed", seed, low=0))
+
+    # ---- pieces ------------------------------------------------------
+    def _dof(self, item: _Table, node: int, direction: str, key: str) -> None:
+        if self.model is None:
+            return
+        if node not in self.model.nodes:
+            ids = sorted(self.model.nodes)
+            raise item.error(key, f"unknown node {node} in {self.model.name} (nodes {ids[0]}..{ids[-1]})")
+        try:
+            self.model.dof_index(node, direction)
+        except UserError:
+            free = [d for n, d in self.model.dofs if n == node]
+            raise item.error(key, f"no free DOF ({node}, {direction!r}) in {self.model.name}; free directions "
+                                  f"at node {node}: {free or 'none (supported)'}") from None
+
+    def _noise(self, table: _Table, seed: int) -> NoiseSpec:
+        table.allow(NOISE_KEYS, "noise")
+        sensor = table.get("sensor", 0.0)
+        if isinstance(sensor, dict):
+            ratios = table.table("sensor")
+            ratios.allow(QUANTITIES, "noise.sensor")
+            sensor = {q: ratios.number(q, low=0.0) for q in ratios.data}
+        else:
+            level = table.number("sensor", 0.0, low=0.0)
+            sensor = {q: level for q in QUANTITIES} if level else {}
+        return NoiseSpec(sensor, table.string("mode", "rms", MODES),
+                         table.number("actuator_amplitude", 0.0, low=0.0),
+                         table.number("actuator_frequency", 0.0, low=0.0), seed)
+
+    def _excitation(self, item: _Table, index: int, duration: float | None
+                    ) -> tuple[Excitation | None, tuple[float, ...], float | None]:
+        """An item, or for a stepped sine None with its frequencies and window."""
+        kind = item.string("kind", choices=tuple(EXCITATION_KEYS))
+        item.allow(EXCITATION_KEYS[kind], f"a {kind} excitation")
+        node, direction = item.integer("node"), item.string("dir")
+        self._dof(item, node, direction, "node")
+        if kind in ("harmonic", "stepped-sine"):
+            args = dict(amplitude=item.number("amplitude"), phase=item.number("phase", 0.0),
+                        ramp=item.number("ramp", 0.0, low=0.0), settle=item.number("settle", 0.0, low=0.0))
+            if kind == "harmonic":
+                return Harmonic(node, direction, omega=item.number("omega", low=0.0), **args), (), None
+            omegas = item.get("omegas")
+            if not isinstance(omegas, list) or not omegas:
+                raise item.error("omegas", "expected a non-empty list of frequencies (rad/s)")
+            listed = _Table(self.reader, dict(enumerate(omegas)), {}, item.at("omegas"))
+            values = tuple(listed.number(i, low=0.0) for i in range(len(omegas)))
+            window = item.number("window", low=0.0) if "window" in item.data else None
+            if window is None and duration is None:
+                raise item.error("window", "a stepped sine needs a window (s) or the test's duration")
+            template = Harmonic(node, direction, omega=0.0, **args)
+            return template, values, window
+        if kind == "impulse":
+            method = item.string("method", "pulse", IMPULSE_METHODS)
+            time = item.number("time", 0.0, low=0.0)
+            if method == "initial-velocity" and time != 0:
+                raise item.error("time", "an initial-velocity impulse acts at t = 0")
+            if method == "initial-velocity" and self.model is None:
+                raise item.error("method", "initial-velocity impulses need the structure's model; "
+                                           "use method = \"pulse\" on an external FMU")
+            if duration is not None and time >= duration:
+                raise item.error("time", f"impulse at {time} s is after the end of the test ({duration} s)")
+            return Impulse(node, direction, item.number("impulse"), time, method), (), None
+        if kind == "random":
+            band = item.get("band")
+            if not (isinstance(band, list) and len(band) == 2 and all(
+                    isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
+                    and 0 <= band[0] < band[1] <= math.pi / self.dt * (1 + 1e-9)):
+                raise item.error("band", f"expected [low, high] rad/s with 0 <= low < high <= pi/dt = "
+                                         f"{math.pi / self.dt:g}, got {band!r}")
+            seed = item.integer("seed", derived_seed(self.noise.seed, self.name, "random", index), low=0)
+            return RandomForce(node, direction, item.number("rms", low=0.0), (float(band[0]), float(band[1])),
+                               seed), (), None
+        if isinstance(self.model, ModalModel):
+            raise item.error("kind", "initial conditions at a point are not defined for a modal model; "
+                                     "use an impulse")
+        return Initial(node, direction, item.number("displacement", 0.0), item.number("velocity", 0.0)), (), None
+
+    def _channels(self, force_at: list[tuple[int, str]]) -> dict[Channel, KeyPath]:
+        """Channels in order (per sensor entry, quantity-major), each with its key."""
+        groups = self.t.tables("sensors")
+        if not groups:
+            raise self.t.error("sensors", "a test needs at least one [[tests.sensors]] entry")
+        channels: dict[Channel, KeyPath] = {}
+        for g in groups:
+            g.allow(SENSOR_KEYS, "sensors")
+            quantities = g.get("quantities")
+            if not isinstance(quantities, list) or not quantities:
+                raise g.error("quantities", f"expected a list of quantities from {', '.join(QUANTITIES)}")
+            for i, q in enumerate(quantities):
+                if q not in QUANTITIES:
+                    raise self.reader.error(g.at("quantities") + (i,), f"unknown quantity {q!r}; "
+                                                                       f"known: {', '.join(QUANTITIES)}")
+            dofs = self._sensor_dofs(g)
+            for q in quantities:
+                for node, direction in dofs:
+                    if q == "force" and (node, direction) not in force_at:
+                        raise g.error("quantities", f"a load cell (force) at ({node}, {direction!r}) needs a "
+                                                    f"force excitation there")
+                    channels.setdefault(Channel(q, node, direction), g.where)
+        return channels
+
+    def _sensor_dofs(self, g: _Table) -> list[tuple[int, str]]:
+        nodes = g.get("nodes")
+        if nodes == "all":
+            nodes = sorted({n for n, _ in self.model.dofs}) if self.model is not None else sorted(self.locations)
+        elif not isinstance(nodes, list) or not nodes or not all(
+                isinstance(n, int) and not isinstance(n, bool) for n in nodes):
+            raise g.error("nodes", f"expected \"all\" or a list of node ids, got {nodes!r}")
+        dirs = g.get("dirs", None)
+        if dirs is None and self.model is None:
+            raise g.error("dirs", "an external FMU's sensors need their directions (dirs)")
+        if dirs is not None and (not isinstance(dirs, list) or not dirs or not all(isinstance(d, str) for d in dirs)):
+            raise g.error("dirs", f"expected a list of direction names, got {dirs!r}")
+        out = []
+        for node in nodes:
+            if self.model is not None and node not in self.model.nodes:
+                self._dof(g, node, "", "nodes")
+            at = [d for n, d in self.model.dofs if n == node] if dirs is None else dirs
+            for direction in at:
+                self._dof(g, node, direction, "dirs" if dirs is not None else "nodes")
+                out.append((node, direction))
+        return out
+
+    # ---- assembly ----------------------------------------------------
+    def specs(self) -> list[TestSpec]:
+        duration = self.t.number("duration", positive=True) if "duration" in self.t.data else None
+        items, stepped = [], None
+        for j, item in enumerate(self.t.tables("excitation")):
+            built, omegas, window = self._excitation(item, j, duration)
+            if omegas:
+                if stepped is not None:
+                    raise item.error("kind", "one stepped sine per test")
+                stepped = (j, built, omegas, window)
+            items.append(built)
+        if not items:
+            raise self.t.error("excitation", "a test needs at least one [[tests.excitation]] entry")
+        if stepped is None:
+            if duration is None:
+                raise self.t.error("duration", "missing (required)")
+            return [self._spec(self.name, tuple(items), self._whole(duration, "duration"))]
+        j, template, omegas, window = stepped
+        if duration is None:
+            length = template.ramp + template.settle + window
+            duration = math.ceil(length / self.dt - 1e-9) * self.dt
+        else:
+            duration = self._whole(duration, "duration")
+        specs = []
+        for k, omega in enumerate(omegas):
+            expanded = list(items)
+            expanded[j] = Harmonic(template.node, template.direction, template.amplitude, omega,
+                                   template.phase, template.ramp, template.settle)
+            specs.append(self._spec(f"{self.name}-{k + 1:02d}", tuple(expanded), duration))
+        return specs
+
+    def _whole(self, duration: float, key: str) -> float:
+        ratio = duration / self.dt
+        if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
+            raise self.t.error(key, f"{duration} s is not a whole number of sampling intervals ({self.dt} s)")
+        return round(ratio) * self.dt
+
+    def _spec(self, name: str, items: tuple[Excitation, ...], duration: float) -> TestSpec:
+        force_at = force_dofs(items)
+        channels = self._channels(force_at)
+        for j, item in enumerate(items):
+            key = self.t.at("excitation") + (j, "node")
+            if is_force(item):
+                self.reader.want(key, self.mapping, "force", item.node, item.direction)
+            if isinstance(item, Initial):
+                for q, v in (("initial_displacement", item.displacement), ("initial_velocity", item.velocity)):
+                    if v:
+                        self.reader.want(key, self.mapping, q, item.node, item.direction)
+        for c, key in channels.items():
+            if c.quantity != "force":
+                self.reader.want(key, self.mapping, c.quantity, c.node, c.direction)
+        return TestSpec(name, self.name, self.dt, self.step, duration, items, tuple(channels), self.noise,
+                        self.repetitions, self.noise.seed)
+
+
+def builtin_parameters(model: Model) -> list[str]:
+    """FMU parameter names of a built-in structure: ``{param}_{element}``
+    (``m_3``, ``k_3``, ``rho_5``), or ``omega_{r}``, ``zeta_{r}`` for a modal model."""
+    if isinstance(model, ModalModel):
+        return [f"{p}_{r + 1}" for p in ("omega", "zeta") for r in range(model.n_modes)]
+    return [f"{p.name}_{p.element + 1}" for p in model.parameters]
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and validate a campaign file; raises :class:`CampaignError`."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise UserError(f"cannot read campaign file: {err.strerror}", field=str(path)) from None
+    reader = _Reader(path, text)
+    top = reader.top
+    top.allow(TOP_KEYS, "a campaign")
+    name = top.string("name", path.stem)
+    seed = top.integer("seed", 0, low=0)
+    structure, model, fmu = reader.structure()
+    mapping = reader.mapping(external=fmu is not None)
+    locations = reader.locations()
+    parameters = reader.parameters(model, fmu)
+    truth = top.table("truth").data or None
+    if truth is not None and model is not None:
+        raise top.error("truth", "the truth of a built-in or TOML structure comes from its model")
+    check = top.table("check").data
+    tests = reader.tests(model, locations, mapping, seed)
+    campaign = Campaign(name, path, text, structure, model, fmu, tests, parameters, mapping, locations, truth,
+                        check, seed, tuple(reader.variables), reader.lines)
+    if fmu is not None:
+        campaign.check_variables(fmu_variables(fmu), fmu.name)
+    return campaign

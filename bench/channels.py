@@ -1,0 +1,36 @@
+"""Measurement channels: a quantity at a (node, direction), its name and SI unit."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+QUANTITIES = ("displacement", "velocity", "acceleration", "force")
+ROTATIONS = frozenset({"theta", "rx", "ry", "rz"})
+
+_UNITS = {"displacement": ("m", "rad"), "velocity": ("m/s", "rad/s"),
+          "acceleration": ("m/s^2", "rad/s^2"), "force": ("N", "N m")}
+
+
+def unit(quantity: str, direction: str) -> str:
+    """SI unit of ``quantity`` on a translation or (``theta``, ``r*``) rotation."""
+    return _UNITS[quantity][direction in ROTATIONS]
+
+
+@dataclass(frozen=True, order=True)
+class Channel:
+    """One sensor channel; ``name`` is ``<quantity>_<node>_<direction>``."""
+
+    quantity: str
+    node: int
+    direction: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.quantity}_{self.node}_{self.direction}"
+
+    @property
+    def unit(self) -> str:
+        return unit(self.quantity, self.direction)
+
+    @property
+    def dof(self) -> tuple[int, str]:
+        return (self.node, self.direction)
