@@ -44,6 +44,8 @@ class FmuError(UserError):
 
 
 class VariableInfo(NamedTuple):
+    """A model variable as read from modelDescription.xml (unit: SI name, or None)."""
+
     value_reference: int
     causality: str
     variability: str

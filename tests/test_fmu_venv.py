@@ -74,7 +74,7 @@ def _venv(root: Path) -> Path:
     site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                                capture_output=True, text=True, check=True).stdout.strip())
     for dist in _closure(["numpy", "scipy", "fmpy"]):
-        tops = {Path(f).parts[0] for f in dist.files or () if not str(f).startswith("..")}
+        tops = {Path(f).parts[0] for f in dist.files or ()} - {"..", "__pycache__"}
         for top in tops:
             source = Path(dist.locate_file(top))
             if source.exists() and not (site / top).exists():
