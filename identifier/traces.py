@@ -1,0 +1,206 @@
+"""Reader of trace files (HDF5, ``docs/trace-format.md``).
+
+Reads only what an experimenter recorded: never ``truth.json``. Every error
+names the file and the missing dataset or attribute.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from .errors import IdentificationError
+
+FORMAT = "structbench-trace"
+QUANTITIES = ("displacement", "velocity", "acceleration", "force")
+CHANNEL_ATTRS = ("quantity", "unit", "node", "direction")
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One logged signal: ``data`` (n,) in SI units at (``node``, ``direction``).
+
+    ``location`` (m, shape (3,)) is NaN where the trace does not give it;
+    ``noise_ratio`` and ``noise_mode`` are the sensor's declared noise.
+    """
+
+    name: str
+    data: np.ndarray
+    quantity: str
+    unit: str
+    node: int
+    direction: str
+    location: np.ndarray
+    noise_ratio: float = 0.0
+    noise_mode: str = "rms"
+
+    @property
+    def dof(self) -> tuple[int, str]:
+        return (self.node, self.direction)
+
+    def sigma(self) -> np.ndarray:
+        """Standard deviation of the declared sensor noise per sample, shape (n,).
+
+        ``rms`` mode: ratio x RMS of the noise-free signal, estimated from the
+        noisy record as ``RMS / sqrt(1 + ratio^2)``; ``proportional``: ratio x |x_k|.
+        """
+        if self.noise_mode == "proportional":
+            return self.noise_ratio * np.abs(self.data)
+        rms = np.sqrt(np.mean(self.data**2) / (1.0 + self.noise_ratio**2))
+        return np.full(self.data.shape, self.noise_ratio * rms)
+
+
+@dataclass(frozen=True)
+class Trace:
+    """One test (and repetition) as recorded.
+
+    ``time`` (n,) s and ``dt`` s; ``step`` is the interval over which forces are
+    held (s, ``dt`` unless the file says otherwise); ``channels`` and
+    ``excitation`` map names to :class:`Channel`; ``attrs`` are the root
+    attributes, ``excitation_attrs`` those of ``/excitation`` (``spec`` parsed
+    from JSON), ``noise_attrs`` those of ``/noise``.
+    """
+
+    path: Path
+    time: np.ndarray
+    dt: float
+    step: float
+    channels: dict[str, Channel]
+    excitation: dict[str, Channel]
+    attrs: dict[str, Any]
+    excitation_attrs: dict[str, Any] = field(default_factory=dict)
+    noise_attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def test(self) -> str:
+        return str(self.attrs.get("test", self.path.stem))
+
+    @property
+    def repetition(self) -> int:
+        return int(self.attrs.get("repetition", 0))
+
+    @property
+    def structure(self) -> str:
+        return str(self.attrs.get("structure", ""))
+
+    @property
+    def omega(self) -> float:
+        """Excitation frequency (rad/s) of a harmonic test."""
+        if "omega" not in self.excitation_attrs:
+            raise IdentificationError(f"{self.path.name}: /excitation has no attribute 'omega' "
+                                      "(not a harmonic test)", field="omega")
+        return float(self.excitation_attrs["omega"])
+
+    def select(self, quantity: str) -> list[Channel]:
+        """Channels of one quantity, in file order."""
+        return [c for c in self.channels.values() if c.quantity == quantity]
+
+    def channel(self, quantity: str, node: int, direction: str) -> Channel:
+        """The channel ``<quantity>_<node>_<direction>``; a clear error if absent."""
+        for c in self.channels.values():
+            if c.quantity == quantity and c.dof == (node, direction):
+                return c
+        raise IdentificationError(f"{self.path.name}: missing channel {quantity}_{node}_{direction} "
+                                  f"(channels: {', '.join(self.channels) or 'none'})", field="channels")
+
+    def forces(self) -> list[Channel]:
+        """Measured force channels if any, else the commanded ``/excitation`` forces."""
+        measured = self.select("force")
+        return measured or [c for c in self.excitation.values() if c.quantity == "force"]
+
+
+def _decode(value: Any) -> Any:
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
+    return {k: _decode(v) for k, v in obj.attrs.items()}
+
+
+def _channel(ds: h5py.Dataset, where: str, n: int) -> Channel:
+    attrs = _attrs(ds)
+    for key in CHANNEL_ATTRS:
+        if key not in attrs:
+            raise IdentificationError(f"{where}: dataset {ds.name} has no attribute {key!r}", field=key)
+    if attrs["quantity"] not in QUANTITIES:
+        raise IdentificationError(f"{where}: {ds.name} has quantity {attrs['quantity']!r}; "
+                                  f"known: {', '.join(QUANTITIES)}", field="quantity")
+    data = np.asarray(ds[()], dtype=float)
+    if data.shape != (n,):
+        raise IdentificationError(f"{where}: {ds.name} has shape {data.shape}, /time has ({n},)",
+                                  field=ds.name)
+    location = np.asarray(attrs.get("location", [np.nan] * 3), dtype=float).reshape(-1)
+    return Channel(name=ds.name.rsplit("/", 1)[-1], data=data, quantity=attrs["quantity"],
+                   unit=str(attrs["unit"]), node=int(attrs["node"]), direction=str(attrs["direction"]),
+                   location=np.pad(location, (0, max(0, 3 - location.size)), constant_values=0.0)[:3],
+                   noise_ratio=float(attrs.get("noise_ratio", 0.0)),
+                   noise_mode=str(attrs.get("noise_mode", "rms")))
+
+
+def read_trace(path: str | Path) -> Trace:
+    """Read one trace file; raises :class:`IdentificationError` naming what is missing."""
+    path = Path(path)
+    where = path.name
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
+    with f:
+        attrs = _attrs(f)
+        if attrs.get("format") != FORMAT:
+            raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
+                                      f"expected {FORMAT!r}", field="format")
+        for name in ("time", "channels"):
+            if name not in f:
+                raise IdentificationError(f"{where}: missing dataset or group /{name}", field=name)
+        time = np.asarray(f["time"][()], dtype=float)
+        if time.ndim != 1 or time.size < 2:
+            raise IdentificationError(f"{where}: /time must hold at least two samples", field="time")
+        dt = float(attrs.get("dt", time[1] - time[0]))
+        channels = {k: _channel(ds, where, time.size) for k, ds in f["channels"].items()}
+        excitation, excitation_attrs = {}, {}
+        if "excitation" in f:
+            excitation = {k: _channel(ds, where, time.size) for k, ds in f["excitation"].items()}
+            excitation_attrs = _attrs(f["excitation"])
+            if isinstance(excitation_attrs.get("spec"), str):
+                excitation_attrs["spec"] = json.loads(excitation_attrs["spec"])
+        noise_attrs = _attrs(f["noise"]) if "noise" in f else {}
+    return Trace(path=path, time=time, dt=dt, step=float(attrs.get("step", dt)), channels=channels,
+                 excitation=excitation, attrs=attrs, excitation_attrs=excitation_attrs,
+                 noise_attrs=noise_attrs)
+
+
+def trace_files(source: str | Path | list[str | Path]) -> list[Path]:
+    """``DIR/traces/*.h5`` of a campaign folder, ``DIR/*.h5``, or the given files."""
+    if isinstance(source, (str, Path)) and Path(source).is_dir():
+        folder = Path(source) / "traces" if (Path(source) / "traces").is_dir() else Path(source)
+        files = sorted(folder.glob("*.h5"))
+        if not files:
+            raise IdentificationError(f"no trace files (*.h5) in {folder}", field="traces")
+        return files
+    paths = [Path(source)] if isinstance(source, (str, Path)) else [Path(p) for p in source]
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        raise IdentificationError(f"no such trace file(s): {', '.join(missing)}", field="traces")
+    return paths
+
+
+def read_traces(source: str | Path | list[str | Path]) -> list[Trace]:
+    """All traces of a campaign folder (or the given files), sorted by (test, repetition)."""
+    return sorted((read_trace(p) for p in trace_files(source)), key=lambda t: (t.test, t.repetition))
+
+
+def by_repetition(traces: list[Trace]) -> dict[int, list[Trace]]:
+    """Traces grouped by repetition index (ascending), each group in (test) order."""
+    groups: dict[int, list[Trace]] = {}
+    for trace in sorted(traces, key=lambda t: (t.repetition, t.test)):
+        groups.setdefault(trace.repetition, []).append(trace)
+    return groups
