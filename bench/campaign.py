@@ -7,6 +7,7 @@ error names the key and its line, e.g. ``ch3.toml:14: tests[1].duration: ...``.
 """
 from __future__ import annotations
 
+import json
 import math
 import re
 import tomllib
@@ -132,7 +133,8 @@ class Campaign:
 
 
 def _error(path: Path, lines: Mapping[KeyPath, int], key: KeyPath, message: str) -> CampaignError:
-    shown = "".join(f"[{k + 1}]" if isinstance(k, int) else f".{k}" for k in key).lstrip(".")
+    shown = "".join(f"[{k + 1}]" if isinstance(k, int) else f".{json.dumps(k) if '.' in k else k}"
+                    for k in key).lstrip(".")
     line = line_of(lines, key)
     return CampaignError(message, field=f"{path.name}:{line}: {shown}" if line else f"{path.name}: {shown}")
 
@@ -273,7 +275,8 @@ class _Reader:
     def parameters(self, model: Model | None, fmu: Path | None) -> dict[str, float]:
         table = self.top.table("parameters")
         values = {key: table.number(key) for key in table.data}
-        known = fmu_variables(fmu) if fmu is not None else builtin_parameters(model)
+        known = ([n for n, c in fmu_variables(fmu).items() if c == "parameter"] if fmu is not None
+                 else builtin_parameters(model))
         for key in values:
             if key not in known:
                 near = closest(key, known)
