@@ -8,11 +8,14 @@ noise every repetition is a task of its own.
 """
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import math
 import multiprocessing
+import multiprocessing.util
 import os
 import tempfile
+import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -30,7 +33,17 @@ from .truth import impulse_states, truth
 MAX_CHUNK = 10  # sensor-noise repetitions per task
 
 # ---- worker side -----------------------------------------------------------
-_RIG: dict[tuple, Rig] = {}  # this process's FMU instance, by campaign set-up
+_LOCAL = threading.local()  # this worker's FMU instance (per thread: Dask may run threads)
+_OPEN: list[Rig] = []       # every instance this process opened, closed at exit
+
+
+def _close_all() -> None:
+    while _OPEN:
+        _OPEN.pop().close()
+
+
+atexit.register(_close_all)
+multiprocessing.util.Finalize(None, _close_all, exitpriority=10)  # pool workers skip atexit
 
 
 def _fmu_file(bench: Bench, blob: bytes | None) -> str:
@@ -46,14 +59,19 @@ def _fmu_file(bench: Bench, blob: bytes | None) -> str:
 
 
 def _rig(bench: Bench, blob: bytes | None) -> Rig:
-    """This worker's FMU instance for ``bench``, opened on first use."""
+    """This worker's FMU instance for ``bench``, opened on first use and kept
+    (reset between tests) until a campaign with another set-up comes."""
     key = (bench.fmu_sha256, tuple(sorted(bench.parameters.items())))
-    if key not in _RIG:
-        for old in _RIG.values():
+    if getattr(_LOCAL, "key", None) != key:
+        old = getattr(_LOCAL, "rig", None)
+        if old is not None:
+            _OPEN.remove(old)
             old.close()
-        _RIG.clear()
-        _RIG[key] = Rig(dataclasses.replace(bench, fmu=_fmu_file(bench, blob)))
-    return _RIG[key]
+        _LOCAL.key, _LOCAL.rig = None, None
+        _LOCAL.rig = Rig(dataclasses.replace(bench, fmu=_fmu_file(bench, blob)))
+        _LOCAL.key = key
+        _OPEN.append(_LOCAL.rig)
+    return _LOCAL.rig
 
 
 def trace_task(bench: Bench, test: TestSpec, repetitions: list[int], record: Record | None, keep_record: bool,
