@@ -96,8 +96,8 @@ class Trace:
         return float(self.excitation_attrs["omega"])
 
     def select(self, quantity: str) -> list[Channel]:
-        """Channels of one quantity, in file order."""
-        return [c for c in self.channels.values() if c.quantity == quantity]
+        """Channels of one quantity, sorted by (node, direction)."""
+        return sorted((c for c in self.channels.values() if c.quantity == quantity), key=lambda c: c.dof)
 
     def channel(self, quantity: str, node: int, direction: str) -> Channel:
         """The channel ``<quantity>_<node>_<direction>``; a clear error if absent."""
@@ -137,10 +137,12 @@ def _channel(ds: h5py.Dataset, where: str, n: int) -> Channel:
     if data.shape != (n,):
         raise IdentificationError(f"{where}: {ds.name} has shape {data.shape}, /time has ({n},)",
                                   field=ds.name)
-    location = np.asarray(attrs.get("location", [np.nan] * 3), dtype=float).reshape(-1)
+    given = np.asarray(attrs.get("location", []), dtype=float).reshape(-1)[:3]
+    location = np.zeros(3) if given.size else np.full(3, np.nan)
+    location[:given.size] = given
     return Channel(name=ds.name.rsplit("/", 1)[-1], data=data, quantity=attrs["quantity"],
                    unit=str(attrs["unit"]), node=int(attrs["node"]), direction=str(attrs["direction"]),
-                   location=np.pad(location, (0, max(0, 3 - location.size)), constant_values=0.0)[:3],
+                   location=location,
                    noise_ratio=float(attrs.get("noise_ratio", 0.0)),
                    noise_mode=str(attrs.get("noise_mode", "rms")))
 
