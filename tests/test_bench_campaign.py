@@ -1,0 +1,162 @@
+"""Campaign files: validation before any simulation, with key and line."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import bench.fmu_driver
+from bench.campaign import CampaignError, load_campaign
+from bench.cli import main
+from bench.parallel import run_campaign
+from bench.toml_lines import key_lines
+
+CAMPAIGNS = Path(__file__).resolve().parent.parent / "campaigns"
+
+GOOD = """\
+name = "good"
+structure = "ch4-cantilever-case1"
+seed = 1
+
+[check]
+rms_max = 0.05
+
+[defaults]
+dt = 0.01
+sensors = [{nodes = "all", quantities = ["displacement"]},
+           {nodes = [7], dirs = ["w"], quantities = ["force"]}]
+
+[[tests]]
+name = "sine"
+duration = 2.0
+[[tests.excitation]]
+kind = "harmonic"
+node = 7
+dir = "w"
+amplitude = 1.0
+omega = 0.5
+
+[[tests]]
+name = "stepped"
+[tests.noise]
+sensor = 0.01
+[[tests.excitation]]
+kind = "stepped-sine"
+node = 7
+dir = "w"
+amplitude = 1.0
+omegas = [0.5, 1.0, 1.5]
+ramp = 1.0
+settle = 0.5
+window = 1.005
+"""
+
+# (replace this, by that) -> the key and line the error must name
+BAD = {
+    "unknown structure": (('structure = "ch4-cantilever-case1"', 'structure = "ch4-cantilever-case9"'),
+                          "structure", 2),
+    "unknown node": (("node = 7\ndir = \"w\"\namplitude = 1.0\nomega", "node = 70\ndir = \"w\"\namplitude = 1.0\nomega"),
+                     "tests[1].excitation[1].node", 18),
+    "unknown sensor node": (("nodes = [7]", "nodes = [8]"), "defaults.sensors[2].nodes", 11),
+    "clamped node": (('nodes = [7], dirs = ["w"], quantities = ["force"]', 'nodes = [1], dirs = ["w"], '
+                      'quantities = ["displacement"]'), "defaults.sensors[2].dirs", 11),
+    "negative duration": (("duration = 2.0", "duration = -2.0"), "tests[1].duration", 15),
+    "sampling slower than the step": (("dt = 0.01\n", "dt = 0.01\nstep = 0.02\n"), "defaults.dt", 9),
+    "step not dividing dt": (("dt = 0.01\n", "dt = 0.01\nstep = 0.003\n"), "defaults.dt", 9),
+    "unknown key": (("omega = 0.5", "omega = 0.5\nfrequency = 3.0"), "tests[1].excitation[1].frequency", 22),
+    "unknown top key": (("seed = 1", "seed = 1\nseeds = 2"), "seeds", 4),
+    "unknown noise key": (("sensor = 0.01", "sensor = 0.01\nratio = 0.02"), "tests[2].noise.ratio", 27),
+    "unknown quantity": (('quantities = ["displacement"]}', 'quantities = ["strain"]}'),
+                         "defaults.sensors[1].quantities[1]", 10),
+    "load cell without actuator": (('nodes = [7], dirs = ["w"], quantities = ["force"]',
+                                    'nodes = [6], dirs = ["w"], quantities = ["force"]'),
+                                   "defaults.sensors[2].quantities", 11),
+    "duplicate name": (("window = 1.005\n", 'window = 1.005\n[[tests]]\nname = "sine"\nduration = 1.0\n'
+                                             'excitation = [{kind = "impulse", node = 7, dir = "w", impulse = 1.0}]\n'),
+                       "tests[3].name", 37),
+    "negative frequency": (("omegas = [0.5, 1.0, 1.5]", "omegas = [0.5, -1.0, 1.5]"),
+                           "tests[2].excitation[1].omegas[2]", 32),
+    "bad mode": (("sensor = 0.01", 'sensor = 0.01\nmode = "gain"'), "tests[2].noise.mode", 27),
+}
+
+
+def write(tmp_path: Path, text: str, name: str = "campaign.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """Any FMU session opened fails the test."""
+    def forbidden(*args, **kwargs):
+        raise AssertionError("an FMU was opened before validation finished")
+    monkeypatch.setattr(bench.fmu_driver, "FmuSession", forbidden)
+
+
+def test_good_campaign_parses(tmp_path):
+    campaign = load_campaign(write(tmp_path, GOOD))
+    assert [t.name for t in campaign.tests] == ["sine", "stepped-01", "stepped-02", "stepped-03"]
+    sine, stepped = campaign.tests[0], campaign.tests[2]
+    assert sine.n_samples == 201 and sine.group == "sine"
+    assert [c.name for c in sine.channels][:2] == ["displacement_2_w", "displacement_2_theta"]
+    assert sine.channels[-1].name == "force_7_w" and len(sine.channels) == 13
+    assert stepped.group == "stepped" and stepped.excitation[0].omega == 1.0
+    assert stepped.duration == pytest.approx(2.51) and stepped.n_samples == 252  # ramp + settle + window, rounded up
+    assert stepped.noise.ratio("displacement") == 0.01 and sine.noise.ratio("displacement") == 0.0
+    assert campaign.check == {"rms_max": 0.05}
+    assert len({t.seed(0) for t in campaign.tests}) == 4
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_campaign_fails_before_simulation(case, tmp_path, no_simulation):
+    (old, new), key, line = BAD[case]
+    assert old in GOOD
+    path = write(tmp_path, GOOD.replace(old, new, 1))
+    with pytest.raises(CampaignError) as err:
+        run_campaign(path, tmp_path / "out", jobs=0)
+    assert f"campaign.toml:{line}: {key}:" in str(err.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_reports_key_and_line(tmp_path, capsys, no_simulation):
+    path = write(tmp_path, GOOD.replace("duration = 2.0", "duration = -1"))
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert "campaign.toml:15: tests[1].duration: must be positive" in capsys.readouterr().err
+
+
+def test_toml_syntax_error_names_the_line(tmp_path):
+    with pytest.raises(CampaignError, match="line 3"):
+        load_campaign(write(tmp_path, 'name = "x"\nstructure = "ch5-membrane"\ntests = = [\n'))
+
+
+def test_key_lines_follow_tables_arrays_and_inline_tables():
+    text = ('a = 1  # c\n[t]\nb = {c = 2, "d.e" = [1, {f = 3}]}\nx = [\n  1,\n  {y = 2},\n]\n'
+            '[[u]]\nv = 1\n[[u]]\n[u.w]\nz = "s # not a comment"\n[[u.q]]\nr = 1\n')
+    lines = key_lines(text)
+    assert lines[("a",)] == 1
+    assert lines[("t", "b", "c")] == 3 and lines[("t", "b", "d.e", 1, "f")] == 3
+    assert lines[("t", "x", 1, "y")] == 6
+    assert lines[("u", 0, "v")] == 9 and lines[("u", 1)] == 10
+    assert lines[("u", 1, "w", "z")] == 12 and lines[("u", 1, "q", 0, "r")] == 14
+
+
+def test_structure_from_a_toml_model(tmp_path):
+    model = (Path(__file__).resolve().parent.parent / "docs" / "examples" / "shear-frame-3.toml").read_text()
+    write(tmp_path, model, "frame.toml")
+    campaign = load_campaign(write(tmp_path, 'structure = "frame.toml"\n[[tests]]\nname = "kick"\ndt = 0.01\n'
+                                             'duration = 1.0\nexcitation = [{kind = "initial", node = 3, dir = "x", '
+                                             'displacement = 0.01}]\nsensors = [{nodes = "all", '
+                                             'quantities = ["acceleration"]}]\n'))
+    assert campaign.structure == "shear-frame-3"
+    assert [c.name for c in campaign.tests[0].channels] == [f"acceleration_{n}_x" for n in (1, 2, 3)]
+
+
+@pytest.mark.parametrize("name, tests, channels, samples", [
+    ("ch3", 1, 97, 4001), ("ch4-case1", 24, 12, 40001), ("ch4-case2", 24, 1, 40001),
+    ("ch5-beam", 1, 20, 10001), ("ch5-membrane", 1, 32, 10001)])
+def test_dissertation_campaigns_load(name, tests, channels, samples):
+    campaign = load_campaign(CAMPAIGNS / f"{name}.toml")
+    assert len(campaign.tests) == tests
+    assert {len(t.channels) for t in campaign.tests} == {channels}
+    assert {t.n_samples for t in campaign.tests} == {samples}

@@ -1,0 +1,126 @@
+"""Sensor and actuator noise: requested ratio, reproducible from the seed."""
+from __future__ import annotations
+
+import zlib
+
+import h5py
+import numpy as np
+import pytest
+
+from bench.excitation import ramp_envelope
+from bench.parallel import run_campaign
+from bench_fixtures import assert_same_traces
+
+CAMPAIGN = """\
+name = "noise"
+structure = "ch4-cantilever-case1"
+seed = {seed}
+
+[defaults]
+dt = 0.01
+duration = 40.0
+sensors = [{{nodes = "all", quantities = ["displacement", "acceleration"]}},
+           {{nodes = [7], dirs = ["w"], quantities = ["force"]}}]
+excitation = [{{kind = "harmonic", node = 7, dir = "w", amplitude = 1.0, omega = 2.0, ramp = 2.0}}]
+
+[[tests]]
+name = "clean"
+
+[[tests]]
+name = "rms"
+repetitions = 3
+noise = {{sensor = 0.05}}
+
+[[tests]]
+name = "proportional"
+noise = {{sensor = 0.05, mode = "proportional"}}
+
+[[tests]]
+name = "actuator"
+repetitions = 2
+noise = {{actuator_amplitude = 0.02, actuator_frequency = 0.01}}
+"""
+RATIO = 0.05
+N = 4001
+
+
+def run(tmp_path_factory, seed: int, jobs: int = 0):
+    root = tmp_path_factory.mktemp(f"noise{seed}")
+    path = root / "noise.toml"
+    path.write_text(CAMPAIGN.format(seed=seed))
+    status = run_campaign(path, root / "out", jobs=jobs, fmu_dir=tmp_path_factory.getbasetemp() / "fmus")
+    assert status.failed == 0
+    return root / "out"
+
+
+@pytest.fixture(scope="module")
+def out(tmp_path_factory):
+    return run(tmp_path_factory, seed=5)
+
+
+def channels(path) -> tuple[dict[str, np.ndarray], dict]:
+    with h5py.File(path, "r") as f:
+        return {k: v[()] for k, v in f["channels"].items()}, dict(f.attrs)
+
+
+def test_rms_noise_has_the_requested_ratio_and_comes_from_the_seed(out):
+    clean, _ = channels(out / "traces" / "clean.h5")
+    tolerance = 4 / np.sqrt(2 * N)  # relative sampling error of a standard deviation, 4 sigma
+    for r in range(3):
+        noisy, attrs = channels(out / "traces" / f"rms.r{r:03d}.h5")
+        for name, x in clean.items():
+            noise = noisy[name] - x
+            rms = np.sqrt(np.mean(x**2))
+            assert np.std(noise) / rms == pytest.approx(RATIO, rel=tolerance), name
+            z = np.random.default_rng([int(attrs["seed"]), 1, zlib.crc32(name.encode())]).standard_normal(N)
+            np.testing.assert_allclose(noise, RATIO * rms * z, rtol=0, atol=1e-12 * np.abs(x).max())
+
+
+def test_proportional_noise_is_a_gain_error(out):
+    clean, _ = channels(out / "traces" / "clean.h5")
+    noisy, _ = channels(out / "traces" / "proportional.h5")
+    for name, x in clean.items():
+        keep = np.abs(x) > 1e-9 * np.abs(x).max()
+        gain = (noisy[name][keep] - x[keep]) / np.abs(x[keep])
+        assert np.std(gain) == pytest.approx(RATIO, rel=4 / np.sqrt(2 * keep.sum())), name
+        assert noisy[name][0] == x[0] == 0.0  # at rest at t = 0: no signal, no noise
+
+
+def test_repetitions_differ_and_attributes_declare_the_noise(out):
+    a, attrs_a = channels(out / "traces" / "rms.r000.h5")
+    b, attrs_b = channels(out / "traces" / "rms.r001.h5")
+    assert attrs_a["seed"] != attrs_b["seed"]
+    assert all(not np.array_equal(a[k], b[k]) for k in a)
+    with h5py.File(out / "traces" / "rms.r000.h5", "r") as f:
+        assert f["channels/displacement_7_w"].attrs["noise_ratio"] == RATIO
+        assert f["channels/displacement_7_w"].attrs["noise_mode"] == "rms"
+        assert f["noise"].attrs["sensor_ratio"] == RATIO and f["noise"].attrs["seed"] == attrs_a["seed"]
+
+
+def test_same_seed_same_traces_other_seed_other_noise(out, tmp_path_factory):
+    again = run(tmp_path_factory, seed=5, jobs=2)
+    assert_same_traces(out, again)
+    other = run(tmp_path_factory, seed=6)
+    clean_a, _ = channels(out / "traces" / "clean.h5")
+    clean_b, _ = channels(other / "traces" / "clean.h5")
+    assert all(np.array_equal(clean_a[k], clean_b[k]) for k in clean_a)
+    noisy_a, _ = channels(out / "traces" / "rms.r000.h5")
+    noisy_b, _ = channels(other / "traces" / "rms.r000.h5")
+    assert all(not np.array_equal(noisy_a[k], noisy_b[k]) for k in noisy_a)
+
+
+def test_actuator_noise_changes_what_the_structure_feels(out):
+    t = np.arange(N) * 0.01
+    clean, _ = channels(out / "traces" / "clean.h5")
+    responses = []
+    for r in range(2):
+        path = out / "traces" / f"actuator.r{r:03d}.h5"
+        felt, attrs = channels(path)
+        za, zf = np.random.default_rng([int(attrs["seed"]), 0]).standard_normal((1, 2))[0]
+        expected = (1 + 0.02 * za) * ramp_envelope(t, 2.0) * np.cos(2.0 * (1 + 0.01 * zf) * t)
+        np.testing.assert_allclose(felt["force_7_w"], expected, rtol=0, atol=1e-12)
+        with h5py.File(path, "r") as f:  # as commanded: nominal
+            np.testing.assert_array_equal(f["excitation/force_7_w"][()], clean["force_7_w"])
+        assert not np.array_equal(felt["displacement_7_w"], clean["displacement_7_w"])
+        responses.append(felt["displacement_7_w"])
+    assert not np.array_equal(*responses)
