@@ -16,9 +16,11 @@ import multiprocessing.util
 import os
 import tempfile
 import threading
+from collections import deque
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -189,20 +191,44 @@ def make_bench(campaign: Campaign, fmu: Path, sha256: str) -> Bench:
                  impulse_states(campaign) if campaign.model is not None else {})
 
 
+@dataclass
+class _Task:
+    """Repetitions of one test for one worker; ``record`` is a shared
+    noise-free simulation to reuse; ``later`` are repetitions to spread over
+    the workers once this task has returned the simulation."""
+
+    test: TestSpec
+    repetitions: list[int]
+    record: Any = None
+    later: list[int] = field(default_factory=list)
+
+
 class _Scheduler:
-    """Submits the tasks of the missing traces and books their outcomes."""
+    """Submits the tasks of the missing traces and books their outcomes.
+
+    When a worker process dies, every task it took down is retried alone,
+    one at a time from then on, so only the task that kills its worker fails.
+    """
 
     def __init__(self, pool: Pool, bench: Bench, folder: Folder, status: CampaignStatus, blob: Any,
                  progress: Callable[[CampaignStatus], None] | None):
         self.pool, self.bench, self.folder, self.status, self.blob = pool, bench, folder, status, blob
         self.progress = progress
-        self.futures: dict[Any, tuple[TestSpec, list[int]]] = {}
+        self.running: dict[Any, tuple[_Task, bool]] = {}  # future -> (task, ran alone)
+        self.queue: deque[_Task] = deque()
+        self.isolate = False
         self.out_dir = str(folder.traces) if pool.writes_files else None
 
-    def submit(self, test: TestSpec, repetitions: list[int], record: Any = None, later: list[int] | None = None):
-        future = self.pool.submit(trace_task, self.bench, test, repetitions, record, bool(later), self.out_dir,
-                                  self.blob)
-        self.futures[future] = (test, later or [])
+    def submit(self, task: _Task) -> None:
+        if self.isolate:
+            self.queue.append(task)
+            return
+        self._launch(task)
+
+    def _launch(self, task: _Task) -> None:
+        future = self.pool.submit(trace_task, self.bench, task.test, task.repetitions, task.record,
+                                  bool(task.later), self.out_dir, self.blob)
+        self.running[future] = (task, self.isolate)
 
     def start(self, tests: Iterable[TestSpec]) -> None:
         for test in tests:
@@ -212,33 +238,39 @@ class _Scheduler:
                 continue
             if test.noise.actuator:
                 for r in missing:
-                    self.submit(test, [r])
+                    self.submit(_Task(test, [r]))
             else:
                 size = min(MAX_CHUNK, max(1, math.ceil(len(missing) / (4 * self.pool.size))))
-                self.submit(test, missing[:size], later=missing[size:])
+                self.submit(_Task(test, missing[:size], later=missing[size:]))
 
     def book(self, future: Any) -> None:
-        test, later = self.futures.pop(future)
+        task, alone = self.running.pop(future)
         try:
             outcome = future.result()
-        except Exception as err:  # the worker itself died
-            outcome = Outcome(test.name, error=f"worker failed: {type(err).__name__}: {err}")
-        st = self.status.tests[test.name]
+        except Exception as err:  # the worker process died
+            if not alone:
+                self.isolate = True
+                self.queue.append(task)
+                return
+            outcome = Outcome(task.test.name, error=f"the worker process died ({type(err).__name__}: {err})")
+        st = self.status.tests[task.test.name]
         for name, image in outcome.files:
             if image is not None:
                 self.folder.write_trace(name, image)
             st.present.add(name)
         if outcome.error is not None:
             st.error = st.error or outcome.error
-        elif later:
+        elif task.later:
             record = self.pool.share(outcome.record)
-            size = min(MAX_CHUNK, max(1, math.ceil(len(later) / (2 * self.pool.size))))
-            for i in range(0, len(later), size):
-                self.submit(test, later[i:i + size], record)
+            size = min(MAX_CHUNK, max(1, math.ceil(len(task.later) / (2 * self.pool.size))))
+            for i in range(0, len(task.later), size):
+                self.submit(_Task(task.test, task.later[i:i + size], record))
 
     def run(self) -> None:
-        while self.futures:
-            for future in self.pool.wait(self.futures):
+        while self.running or self.queue:
+            if not self.running:
+                self._launch(self.queue.popleft())
+            for future in self.pool.wait(self.running):
                 self.book(future)
             self.folder.write_status(self.status)
             if self.progress is not None:

@@ -54,6 +54,10 @@ name = "overload"   # 10 MN: the FMU raises
 excitation = [{kind = "random", node = 2, dir = "z", rms = 1e7, band = [0.0, 100.0]}]
 
 [[tests]]
+name = "crash"   # 777 N: the FMU kills its worker process
+excitation = [{kind = "harmonic", node = 2, dir = "z", amplitude = 777.0, omega = 0.0}]
+
+[[tests]]
 name = "noise"
 noise = {sensor = 0.01}
 excitation = [{kind = "random", node = 1, dir = "z", rms = 1.0, band = [1.0, 30.0], seed = 4},
@@ -110,12 +114,13 @@ def test_mapped_channels_follow_the_physics(run):
 
 def test_failures_are_recorded_and_the_rest_runs(run):
     status, out = run
-    assert status == 2  # exit status: number of failed tests
+    assert status == 3  # exit status: number of failed tests
     tests = json.loads((out / "status.json").read_text())["tests"]
     assert {name: t["state"] for name, t in tests.items()} == {
-        "sine": "done", "breaks": "failed", "overload": "failed", "noise": "done"}
+        "sine": "done", "breaks": "failed", "overload": "failed", "crash": "failed", "noise": "done"}
     assert "nan" in tests["breaks"]["error"]
     assert "actuator overload" in tests["overload"]["error"]
+    assert "worker process died" in tests["crash"]["error"]
     assert sorted(p.name for p in (out / "traces").glob("*.h5")) == ["noise.h5", "sine.h5"]
     truth = json.loads((out / "truth.json").read_text())
     assert truth["parameters"]["k2"] == 60.0 and truth["source"] == "campaign"
