@@ -2,13 +2,16 @@
 repetitions (one simulation, 200 noisy traces of 97 channels x 4001 samples)
 and a 24-test stepped sine on the chapter 4 cantilever (each test its own
 simulation of 200 000 communication steps), each run with 1 and 2 local
-workers. Prints wall time, tests (trace files) per second and the speed-up.
+workers. Prints wall time, tests (trace files) per second, the speed-up and
+the machine's 1-minute load average before the run (on a shared machine,
+other load takes cores from the workers).
 
     python benchmarks/campaign_throughput.py [--workers 1 2]
 """
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import tempfile
 import time
@@ -63,19 +66,21 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="sb_bench_") as tmp:
         folder = Path(tmp)
         fmus = folder / "fmus"
-        print(f"{'campaign':36s} {'workers':>7s} {'traces':>7s} {'wall (s)':>9s} {'traces/s':>9s} {'speed-up':>9s}")
+        print(f"{'campaign':36s} {'workers':>7s} {'traces':>7s} {'wall (s)':>9s} {'traces/s':>9s} "
+              f"{'speed-up':>9s} {'load':>6s}")
         for label, path in campaigns(folder).items():
             campaign = load_campaign(path)
             prepare_fmu(campaign, fmus)  # built once, outside the timing
             base = None
             for workers in args.workers:
                 out = folder / f"{path.stem}-{workers}"
+                load = os.getloadavg()[0]
                 start = time.perf_counter()
                 status = run_campaign(campaign, out, jobs=workers, fmu_dir=fmus)
                 wall = time.perf_counter() - start
                 traces = sum(len(t.present) for t in status.tests.values())
                 base = base or wall
-                print(f"{label:36s} {workers:7d} {traces:7d} {wall:9.2f} {traces / wall:9.2f} {base / wall:9.2f}",
+                print(f"{label:36s} {workers:7d} {traces:7d} {wall:9.2f} {traces / wall:9.2f} {base / wall:9.2f} {load:6.2f}",
                       flush=True)
 
 
