@@ -41,12 +41,14 @@ class ProgressBar:
         self.stream, self.width, self.start = stream, width, time.monotonic()
 
     def __call__(self, status: CampaignStatus) -> None:
-        total = len(status.tests)
+        tests = status.tests.values()
+        total = sum(len(t.traces) for t in tests)
+        settled = sum(len(t.traces) if t.state == "failed" else len(t.present) for t in tests)
         done, failed = status.count("done"), status.failed
-        filled = round(self.width * (done + failed) / max(total, 1))
+        filled = round(self.width * settled / max(total, 1))
         elapsed = time.monotonic() - self.start
-        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done + failed}/{total} tests"
-                          f"{f', {failed} failed' if failed else ''}  {elapsed:6.1f} s ")
+        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done + failed}/{len(status.tests)} tests"
+                          f", {settled}/{total} traces{f', {failed} failed' if failed else ''}  {elapsed:6.1f} s ")
         self.stream.flush()
 
     def finish(self) -> None:
