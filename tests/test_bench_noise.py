@@ -124,3 +124,20 @@ def test_actuator_noise_changes_what_the_structure_feels(out):
         assert not np.array_equal(felt["displacement_7_w"], clean["displacement_7_w"])
         responses.append(felt["displacement_7_w"])
     assert not np.array_equal(*responses)
+
+
+def test_sensor_noise_repetitions_share_one_simulation(tmp_path, tmp_path_factory, monkeypatch):
+    import bench.runner
+
+    calls: list[str] = []
+    real = bench.runner.simulate
+
+    def counting(rig, bench_, test, items):
+        calls.append(test.name)
+        return real(rig, bench_, test, items)
+
+    monkeypatch.setattr(bench.runner, "simulate", counting)
+    path = tmp_path / "noise.toml"
+    path.write_text(CAMPAIGN.format(seed=5).replace("duration = 40.0", "duration = 1.0"))
+    run_campaign(path, tmp_path / "out", jobs=0, fmu_dir=tmp_path_factory.getbasetemp() / "fmus")
+    assert sorted(calls) == ["actuator", "actuator", "clean", "proportional", "rms"]
