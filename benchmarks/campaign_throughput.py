@@ -6,7 +6,7 @@ workers. Prints wall time, tests (trace files) per second, the speed-up and
 the machine's 1-minute load average before the run (on a shared machine,
 other load takes cores from the workers).
 
-    python benchmarks/campaign_throughput.py [--workers 1 2]
+    python benchmarks/campaign_throughput.py [--workers 1 2] [--only ch3|stepped]
 """
 from __future__ import annotations
 
@@ -48,10 +48,11 @@ window = 1000.0
 """
 
 
-def campaigns(folder: Path) -> dict[str, Path]:
-    """The two benchmark campaigns as files in ``folder``."""
+def campaigns(folder: Path, only: str | None = None) -> dict[str, Path]:
+    """The benchmark campaigns (those whose label starts with ``only``) as files in ``folder``."""
     ch3 = re.sub(r"repetitions = \d+", "repetitions = 200", (ROOT / "campaigns" / "ch3.toml").read_text())
     files = {"ch3, 200 sensor-noise repetitions": ch3, "stepped sine, 24 tests": STEPPED}
+    files = {label: text for label, text in files.items() if only is None or label.startswith(only)}
     out = {}
     for i, (label, text) in enumerate(files.items()):
         out[label] = folder / f"campaign{i}.toml"
@@ -62,13 +63,14 @@ def campaigns(folder: Path) -> dict[str, Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--only", choices=["ch3", "stepped"], help="run one of the two campaigns")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="sb_bench_") as tmp:
         folder = Path(tmp)
         fmus = folder / "fmus"
         print(f"{'campaign':36s} {'workers':>7s} {'traces':>7s} {'wall (s)':>9s} {'traces/s':>9s} "
               f"{'speed-up':>9s} {'load':>6s}")
-        for label, path in campaigns(folder).items():
+        for label, path in campaigns(folder, args.only).items():
             campaign = load_campaign(path)
             prepare_fmu(campaign, fmus)  # built once, outside the timing
             base = None
