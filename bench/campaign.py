@@ -362,52 +362,64 @@ class _TestReader:
                          table.number("actuator_frequency", 0.0, low=0.0), seed)
 
     def _excitation(self, item: _Table, index: int, duration: float | None
-                    ) -> tuple[Excitation | None, tuple[float, ...], float | None]:
-        """An item, or for a stepped sine None with its frequencies and window."""
+                    ) -> tuple[Excitation, tuple[float, ...], float | None]:
+        """An item; for a stepped sine a template with its frequencies and window."""
         kind = item.string("kind", choices=tuple(EXCITATION_KEYS))
         item.allow(EXCITATION_KEYS[kind], f"a {kind} excitation")
         node, direction = item.integer("node"), item.string("dir")
         self._dof(item, node, direction, "node")
-        if kind in ("harmonic", "stepped-sine"):
-            args = dict(amplitude=item.number("amplitude"), phase=item.number("phase", 0.0),
-                        ramp=item.number("ramp", 0.0, low=0.0), settle=item.number("settle", 0.0, low=0.0))
-            if kind == "harmonic":
-                return Harmonic(node, direction, omega=item.number("omega", low=0.0), **args), (), None
-            omegas = item.get("omegas")
-            if not isinstance(omegas, list) or not omegas:
-                raise item.error("omegas", "expected a non-empty list of frequencies (rad/s)")
-            listed = _Table(self.reader, dict(enumerate(omegas)), {}, item.at("omegas"))
-            values = tuple(listed.number(i, low=0.0) for i in range(len(omegas)))
-            window = item.number("window", low=0.0) if "window" in item.data else None
-            if window is None and duration is None:
-                raise item.error("window", "a stepped sine needs a window (s) or the test's duration")
-            template = Harmonic(node, direction, omega=0.0, **args)
-            return template, values, window
-        if kind == "impulse":
-            method = item.string("method", "pulse", IMPULSE_METHODS)
-            time = item.number("time", 0.0, low=0.0)
-            if method == "initial-velocity" and time != 0:
-                raise item.error("time", "an initial-velocity impulse acts at t = 0")
-            if method == "initial-velocity" and self.model is None:
-                raise item.error("method", "initial-velocity impulses need the structure's model; "
-                                           "use method = \"pulse\" on an external FMU")
-            if duration is not None and time >= duration:
-                raise item.error("time", f"impulse at {time} s is after the end of the test ({duration} s)")
-            return Impulse(node, direction, item.number("impulse"), time, method), (), None
-        if kind == "random":
-            band = item.get("band")
-            if not (isinstance(band, list) and len(band) == 2 and all(
-                    isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
-                    and 0 <= band[0] < band[1] <= math.pi / self.dt * (1 + 1e-9)):
-                raise item.error("band", f"expected [low, high] rad/s with 0 <= low < high <= pi/dt = "
-                                         f"{math.pi / self.dt:g}, got {band!r}")
-            seed = item.integer("seed", derived_seed(self.noise.seed, self.name, "random", index), low=0)
-            return RandomForce(node, direction, item.number("rms", low=0.0), (float(band[0]), float(band[1])),
-                               seed), (), None
+        if kind == "stepped-sine":
+            return self._stepped_sine(item, node, direction, duration)
+        build = {"harmonic": self._harmonic, "impulse": self._impulse, "random": self._random,
+                 "initial": self._initial}[kind]
+        return build(item, node, direction, index, duration), (), None
+
+    def _harmonic(self, item: _Table, node: int, direction: str, index: int = 0, duration: float | None = None,
+                  omega: float | None = None) -> Harmonic:
+        return Harmonic(node, direction, item.number("amplitude"),
+                        item.number("omega", low=0.0) if omega is None else omega, item.number("phase", 0.0),
+                        item.number("ramp", 0.0, low=0.0), item.number("settle", 0.0, low=0.0))
+
+    def _stepped_sine(self, item: _Table, node: int, direction: str, duration: float | None
+                      ) -> tuple[Harmonic, tuple[float, ...], float | None]:
+        omegas = item.get("omegas")
+        if not isinstance(omegas, list) or not omegas:
+            raise item.error("omegas", "expected a non-empty list of frequencies (rad/s)")
+        listed = _Table(self.reader, dict(enumerate(omegas)), {}, item.at("omegas"))
+        values = tuple(listed.number(i, low=0.0) for i in range(len(omegas)))
+        window = item.number("window", low=0.0) if "window" in item.data else None
+        if window is None and duration is None:
+            raise item.error("window", "a stepped sine needs a window (s) or the test's duration")
+        return self._harmonic(item, node, direction, omega=0.0), values, window
+
+    def _impulse(self, item: _Table, node: int, direction: str, index: int, duration: float | None) -> Impulse:
+        method = item.string("method", "pulse", IMPULSE_METHODS)
+        time = item.number("time", 0.0, low=0.0)
+        if method == "initial-velocity" and time != 0:
+            raise item.error("time", "an initial-velocity impulse acts at t = 0")
+        if method == "initial-velocity" and self.model is None:
+            raise item.error("method", "initial-velocity impulses need the structure's model; "
+                                       "use method = \"pulse\" on an external FMU")
+        if duration is not None and time >= duration:
+            raise item.error("time", f"impulse at {time} s is after the end of the test ({duration} s)")
+        return Impulse(node, direction, item.number("impulse"), time, method)
+
+    def _random(self, item: _Table, node: int, direction: str, index: int, duration: float | None) -> RandomForce:
+        band = item.get("band")
+        nyquist = math.pi / self.dt
+        if not (isinstance(band, list) and len(band) == 2 and all(
+                isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
+                and 0 <= band[0] < band[1] <= nyquist * (1 + 1e-9)):
+            raise item.error("band", f"expected [low, high] rad/s with 0 <= low < high <= pi/dt = {nyquist:g}, "
+                                     f"got {band!r}")
+        seed = item.integer("seed", derived_seed(self.noise.seed, self.name, "random", index), low=0)
+        return RandomForce(node, direction, item.number("rms", low=0.0), (float(band[0]), float(band[1])), seed)
+
+    def _initial(self, item: _Table, node: int, direction: str, index: int, duration: float | None) -> Initial:
         if isinstance(self.model, ModalModel):
             raise item.error("kind", "initial conditions at a point are not defined for a modal model; "
                                      "use an impulse")
-        return Initial(node, direction, item.number("displacement", 0.0), item.number("velocity", 0.0)), (), None
+        return Initial(node, direction, item.number("displacement", 0.0), item.number("velocity", 0.0))
 
     def _channels(self, force_at: list[tuple[int, str]]) -> dict[Channel, KeyPath]:
         """Channels in order (per sensor entry, quantity-major), each with its key."""
@@ -440,6 +452,8 @@ class _TestReader:
         elif not isinstance(nodes, list) or not nodes or not all(
                 isinstance(n, int) and not isinstance(n, bool) for n in nodes):
             raise g.error("nodes", f"expected \"all\" or a list of node ids, got {nodes!r}")
+        if not nodes:
+            raise g.error("nodes", "\"all\" names no node (list the external FMU's nodes in [locations])")
         dirs = g.get("dirs", None)
         if dirs is None and self.model is None:
             raise g.error("dirs", "an external FMU's sensors need their directions (dirs)")
