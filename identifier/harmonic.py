@@ -56,38 +56,45 @@ def resolvable(omegas: Sequence[float], fixed: float, span: float, dt: float) ->
 
 @dataclass
 class Record:
-    """One windowed record: times (n,), samples (n, c) and its known forced frequency (rad/s)."""
+    """One windowed record: times (n,), samples (n, c) and its known forced
+    frequency (rad/s; ``None`` for a free response)."""
 
     t: np.ndarray
     y: np.ndarray
-    forced: float
+    forced: float | None = None
+
+    @property
+    def known(self) -> list[float]:
+        """Frequencies fitted besides the free ones."""
+        return [] if self.forced is None else [self.forced]
 
 
 def _search(records: Sequence[Record], guesses: np.ndarray, dt: float, prominence: float) -> np.ndarray:
-    """Peak of the summed Hann periodogram of the records (forced part removed)
-    near each guess, or NaN where there is no clear peak."""
-    span = min(r.t[-1] - r.t[0] for r in records)
+    """Peak of the summed Hann periodogram of the records near each guess, or
+    NaN where there is no clear peak. Each record's forced component is
+    fitted out and its spectrum ignored within two bins of that frequency."""
     n_fft = 1 << int(np.ceil(np.log2(8 * max(r.t.size for r in records))))
     grid = 2 * np.pi * np.fft.rfftfreq(n_fft, dt)
     power = np.zeros(grid.size)
     for r in records:
-        X = design(r.t, [r.forced, 0.0])
+        X = design(r.t, [*r.known, 0.0])
         rest = r.y - X @ coefficients(X, r.y)
-        power += np.sum(np.abs(np.fft.rfft(rest * np.hanning(r.t.size)[:, None], n_fft, axis=0)) ** 2, axis=1)
-    floor = np.median(power)
+        part = np.sum(np.abs(np.fft.rfft(rest * np.hanning(r.t.size)[:, None], n_fft, axis=0)) ** 2, axis=1)
+        for w in r.known:
+            part[np.abs(grid - w) < 4 * np.pi / (r.t[-1] - r.t[0])] = 0.0
+        power += part
+    floor = np.median(power[power > 0])
     nyquist = np.pi / dt
     folded = np.abs((guesses + nyquist) % (2 * nyquist) - nyquist)
     found = np.full(guesses.size, np.nan)
     for i, (g, f) in enumerate(zip(guesses, folded)):
         others = np.delete(folded, i)
-        gap = np.min(np.abs(others - f)) / 2 if others.size else f
-        half = min(0.15 * f, gap)
-        band = np.flatnonzero(np.abs(grid - f) <= half)
-        band = band[np.all(np.abs(grid[band, None] - [[r.forced for r in records]]) > 4 * np.pi / span, axis=1)]
+        half = min(0.15 * f, np.min(np.abs(others - f)) / 2 if others.size else f)
+        band = np.flatnonzero((np.abs(grid - f) <= half) & (power > 0))
         if band.size < 3:
             continue
         k = band[np.argmax(power[band])]
-        if k in (band[0], band[-1]) or power[k] < prominence * floor:
+        if k in (band[0], band[-1]) or power[k - 1] == 0 or power[k + 1] == 0 or power[k] < prominence * floor:
             continue
         a, b, c = np.log(power[k - 1:k + 2])
         peak = grid[k] + 0.5 * (a - c) / (a - 2 * b + c) * (grid[1] - grid[0])
@@ -95,17 +102,20 @@ def _search(records: Sequence[Record], guesses: np.ndarray, dt: float, prominenc
     return found
 
 
-def _refine(records: Sequence[Record], omegas: np.ndarray, iterations: int = 10) -> np.ndarray:
-    """Gauss-Newton on the shared free frequencies (variable projection, Kaufman's Jacobian)."""
+def _refine(records: Sequence[Record], omegas: np.ndarray, fixed: np.ndarray, iterations: int = 10
+            ) -> np.ndarray:
+    """Gauss-Newton on the shared free frequencies ``omegas`` (variable
+    projection, Kaufman's Jacobian); components at ``fixed`` are fitted too."""
     w = omegas.copy()
     for _ in range(iterations):
         jtj = np.zeros((w.size, w.size))
         jtr = np.zeros(w.size)
         for r in records:
-            X = design(r.t, [r.forced, *w])
+            X = design(r.t, [*r.known, *fixed, *w])
             coef = coefficients(X, r.y)
             resid = r.y - X @ coef
-            a, b = coef[2::2], coef[3::2]  # (K, c)
+            lead = 2 * (len(r.known) + fixed.size)
+            a, b = coef[lead::2], coef[lead + 1::2]  # (K, c)
             s, c = np.sin(np.outer(r.t, w)), np.cos(np.outer(r.t, w))
             for ch in range(r.y.shape[1]):
                 D = r.t[:, None] * (-a[:, ch] * s + b[:, ch] * c)  # d(fit)/d(omega), (n, K)
@@ -128,15 +138,16 @@ def free_frequencies(records: Sequence[Record], guesses: Sequence[float], dt: fl
     clear peak within 15 % of the guess (or half-way to the next guess).
 
     Peaks of the summed Hann periodogram (power above ``prominence`` times its
-    median) seed a joint Gauss-Newton fit of all records; an estimate that
-    leaves its search band is dropped.
+    median) seed a joint Gauss-Newton fit of all records, in which the modes
+    without a peak keep their guessed frequency; an estimate that leaves its
+    search band is dropped.
     """
     guesses = np.asarray(guesses, dtype=float)
     found = _search(records, guesses, dt, prominence)
     ok = np.isfinite(found) & (guesses > 0)
     if not ok.any():
         return found
-    refined = _refine(records, found[ok])
+    refined = _refine(records, found[ok], np.unique(guesses[~ok]))
     out = np.full(guesses.size, np.nan)
     out[np.flatnonzero(ok)] = np.where(np.abs(refined / guesses[ok] - 1) < 0.15, refined, np.nan)
     return out

@@ -19,7 +19,8 @@ component at ``omega`` plus free-vibration components, which never decay in
 an undamped structure. Their frequencies are the structure's natural
 frequencies as estimated from the records themselves
 (:func:`identifier.harmonic.free_frequencies`, seeded by the postulated
-model), falling back to the current model's where the records show no clear
+model; traces of the run without ``omega``, an impulse test say, contribute
+their free response after the last force sample), falling back to the current model's where the records show no clear
 peak; components the record cannot separate from ``omega`` (within half a
 frequency bin) are left out. The force is held over each ``step`` (trace
 format), so its fundamental acts as the fitted amplitude times
@@ -105,18 +106,35 @@ def _sensors(trace: Trace) -> tuple[str, list[Channel]]:
                               field="channels")
 
 
-def harmonic_tests(traces: Sequence[Trace], model: Structure) -> tuple[list[HarmonicTest], str, list[Channel],
-                                                                       np.ndarray]:
+def _free_record(trace: Trace, quantity: str, dofs: list) -> Record:
+    """A free response (no ``omega``): its sensor samples after the last force sample."""
+    here = trace.select(quantity)
+    if [c.dof for c in here] != dofs:
+        raise IdentificationError(f"{trace.path.name}: its {quantity} sensors differ from the harmonic tests'",
+                                  field="channels")
+    forces = [c.data for c in trace.forces()]
+    active = np.flatnonzero(np.any(np.abs(forces) > 0, axis=0)) if forces else np.array([], dtype=int)
+    start = active[-1] + 1 if active.size else 0
+    return Record(trace.time[start:], np.column_stack([c.data for c in here])[start:])
+
+
+def harmonic_tests(traces: Sequence[Trace], model: Structure
+                   ) -> tuple[list[HarmonicTest], str, list[Channel], np.ndarray, list[Record]]:
     """Windowed records of the harmonic tests, the sensor quantity, sensor
-    channels (of the first trace) and their DOF indices."""
-    quantity, sensors = _sensors(traces[0])
-    index = _index(model, sensors, traces[0])
+    channels (of the first harmonic test), their DOF indices, and the free
+    responses (traces without ``omega``, used for natural frequencies only)."""
+    harmonic = [t for t in traces if "omega" in t.excitation_attrs]
+    if not harmonic:
+        raise IdentificationError(f"no harmonic test (an /excitation attribute 'omega') among "
+                                  f"{', '.join(t.path.name for t in traces)}", field="omega")
+    quantity, sensors = _sensors(harmonic[0])
+    index = _index(model, sensors, harmonic[0])
     tests = []
-    for trace in traces:
+    for trace in harmonic:
         here = trace.select(quantity)
         if [c.dof for c in here] != [c.dof for c in sensors]:
             raise IdentificationError(f"{trace.path.name}: its {quantity} sensors differ from those of "
-                                      f"{traces[0].path.name}", field="channels")
+                                      f"{harmonic[0].path.name}", field="channels")
         forces = trace.forces()
         if not forces:
             raise IdentificationError(f"{trace.path.name}: no force channel and no /excitation force",
@@ -129,7 +147,9 @@ def harmonic_tests(traces: Sequence[Trace], model: Structure) -> tuple[list[Harm
                                   np.column_stack([c.data for c in here])[keep],
                                   np.column_stack([c.data for c in forces])[keep],
                                   _index(model, forces, trace), trace.step, trace.dt))
-    return tests, quantity, sensors, index
+    free = [_free_record(t, quantity, [c.dof for c in sensors]) for t in traces
+            if "omega" not in t.excitation_attrs]
+    return tests, quantity, sensors, index, free
 
 
 def responses(tests: Sequence[HarmonicTest], quantity: str, free: np.ndarray, n_dof: int
@@ -221,10 +241,12 @@ def identify(traces: Sequence[Trace], model: Structure, max_iterations: int = 20
     if not isinstance(model, Structure):
         raise IdentificationError(f"the perturbation method needs a finite-element model; {model.name} is "
                                   "modal", field="model")
-    tests, quantity, sensors, index = harmonic_tests(traces, model)
-    guesses = model.modes().omega
-    records = [Record(t.t, t.sensors, t.omega) for t in tests]
-    natural = free_frequencies(records, guesses, tests[0].dt)
+    if len({t.dt for t in traces}) > 1:
+        raise IdentificationError("the traces of one run must share their sampling interval dt; got "
+                                  f"{sorted({t.dt for t in traces})}", field="dt")
+    tests, quantity, sensors, index, free = harmonic_tests(traces, model)
+    records = [Record(t.t, t.sensors, t.omega) for t in tests] + free
+    natural = free_frequencies(records, model.modes().omega, traces[0].dt)
     _count_check(model, len(tests), len(sensors), int(np.isfinite(natural).sum()) if natural_frequencies else 0)
     mask = model.kind_mask()
     labels = [p.label for p, u in zip(model.parameters, mask) if u]

@@ -65,7 +65,7 @@ def case2(tmp_path_factory):
 def test_frequency_responses_from_the_time_traces(case2):
     """Forced amplitude with free vibration fitted out and the hold corrected: the continuous FRF."""
     actual = load_model("ch4-cantilever-case2")
-    tests, quantity, _, index = harmonic_tests(case2, actual)
+    tests, quantity, _, index, _ = harmonic_tests(case2, actual)
     for omega, W, F in responses(tests, quantity, actual.modes().omega, actual.n_dof):
         Z = actual.stiffness().toarray() - omega**2 * actual.mass().toarray()
         assert W == pytest.approx(np.linalg.solve(Z, F)[index], rel=1e-4)  # images of the hold neglected
@@ -74,7 +74,7 @@ def test_frequency_responses_from_the_time_traces(case2):
 
 def test_natural_frequencies_from_the_free_vibration(case2):
     actual = load_model("ch4-cantilever-case2")
-    tests, _, _, _ = harmonic_tests(case2, actual)
+    tests = harmonic_tests(case2, actual)[0]
     found = free_frequencies([Record(t.t, t.sensors, t.omega) for t in tests],
                              postulated("case2").modes().omega, DT)
     assert found == pytest.approx(actual.modes().omega, rel=1e-8)
@@ -137,3 +137,19 @@ def test_a_trace_without_excitation_frequency(tmp_path):
 def test_sensors_off_the_model(case1):
     with pytest.raises(IdentificationError, match="do not match"):
         identify(case1, load_model("ch5-membrane"))
+
+
+def test_case2_soft_start_with_an_impulse_test(tmp_path, truth):
+    """Harmonic tests after a soft start (little free vibration) plus an
+    impulse test in the same run, which supplies the natural frequencies."""
+    actual = load_model("ch4-cantilever-case2")
+    ramped = [t for t in stepped_sine("case2", tmp_path, CASE2_OMEGAS, ramp=100.0)]
+    pulse = np.zeros((round(DURATION / DT) + 1, actual.n_dof))
+    pulse[0, actual.dof_index(7, "w")] = 1.0 / DT
+    impulse = read_trace(write_trace(tmp_path / "impulse.h5", actual, respond(actual, pulse, DT), DT,
+                                     [("displacement", 7, "w"), ("force", 7, "w")], test="impulse",
+                                     excitation_attrs={"kind": "impulse"}))
+    result = identify(ramped + [impulse], postulated("case2"), natural_frequencies=True)
+    assert result.details["natural_frequencies"] == pytest.approx(actual.modes().omega, rel=1e-8)
+    assert result.status == "converged" and result.iterations <= 10
+    assert nrms(result.values(), truth["case2"]) < 1e-3
