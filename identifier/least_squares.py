@@ -213,7 +213,8 @@ def _not_identifiable(null: np.ndarray, labels: list[str]) -> list[str]:
 
 
 def _raise_deficient(names: list[str], rank: int, total: int) -> None:
-    raise IdentificationError(f"rank deficient ({rank} of {total}): parameter(s) {', '.join(names)} are not "
+    listed = ", ".join(names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
+    raise IdentificationError(f"rank deficient ({rank} of {total}): parameter(s) {listed} are not "
                               "identifiable from these measurements (is elastic motion excited?)",
                               field="parameters")
 
@@ -222,8 +223,10 @@ def _check_excited(model: Structure, motion: Motion, B: sp.csr_matrix, labels: l
     """Columns ``dX_j x`` that vanish against ``|dX_j| |x|`` (e.g. ``dK_j u`` under
     rigid-body motion) carry no information: raise naming their parameters."""
     signal = {"mass": motion.acceleration, "damping": motion.velocity, "stiffness": motion.displacement}
-    chosen = [(d, p) for d, p, u in zip(model.derivatives, model.parameters, model.kind_mask()) if u]
-    capacity = np.array([sp.linalg.norm(d) * np.linalg.norm(signal[p.kind]) for d, p in chosen])
+    par, _, _, vals = model.triplets
+    pattern = np.sqrt(np.bincount(par, vals**2, minlength=len(model.parameters)))  # |dX_j|_F
+    capacity = np.array([f * np.linalg.norm(signal[p.kind]) for f, p, u in
+                         zip(pattern, model.parameters, model.kind_mask()) if u])
     norms = np.sqrt(np.asarray(B.multiply(B).sum(axis=0)).ravel())
     dead = norms <= 1e-9 * capacity
     if dead.any():
@@ -258,9 +261,9 @@ def _solve_sparse(B: sp.csr_matrix, c: np.ndarray, labels: list[str], rcond: flo
     resid = c - B @ x
     dof = B.shape[0] - B.shape[1]
     s2 = resid @ resid / dof if dof > 0 else np.nan
-    n = N.shape[0]
-    diag = np.concatenate([np.diagonal(lu.solve(np.eye(n, min(256, n - j), -j))[j:j + 256])
-                           for j in range(0, n, 256)])
+    n, block = N.shape[0], 64
+    diag = np.concatenate([np.diagonal(lu.solve(np.eye(n, min(block, n - j), -j))[j:j + block]).copy()
+                           for j in range(0, n, block)])  # copies: a diagonal view keeps its block alive
     std = np.sqrt(diag * s2) / scale
     return Estimate(x, std, float(np.sqrt(lam_max / lam.min())), float(np.sqrt(np.mean(resid**2))), B.shape[0])
 
