@@ -1,4 +1,15 @@
 """Identification methods that read trace files and a model description.
 
 Nothing here imports the harness's simulation code or reads truth.json.
+
+- :mod:`identifier.traces`: the trace reader (``read_trace``, ``read_traces``)
+- :mod:`identifier.least_squares`: chapter 3, time-domain least squares
+- :mod:`identifier.perturbation`: chapter 4, frequency-domain perturbation with pseudo-parameters
+- :mod:`identifier.rayleigh`: chapter 5, pseudo-Rayleigh quotient
+- :mod:`identifier.results`: the result records and their JSON file
+- helpers: :mod:`identifier.integrate` (accelerations to motion), :mod:`identifier.harmonic`
+  (sinusoid fits, free-vibration frequencies)
 """
+from .errors import IdentificationError
+
+__all__ = ["IdentificationError"]

@@ -14,13 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
+EXCLUDE = 2  # frequency bins (2 pi / record length) around a forced frequency where no free one is sought
+
 
 def design(t: np.ndarray, omegas: Sequence[float]) -> np.ndarray:
     """Columns ``cos(omega t), sin(omega t)`` per frequency (``1, t`` for 0), (n, 2 len(omegas))."""
     cols = []
     for w in omegas:
         cols += [np.ones_like(t), t - t.mean()] if w == 0 else [np.cos(w * t), np.sin(w * t)]
-    return np.column_stack(cols)
+    return np.column_stack(cols) if cols else np.empty((t.size, 0))
 
 
 def coefficients(X: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -68,20 +70,31 @@ class Record:
         """Frequencies fitted besides the free ones."""
         return [] if self.forced is None else [self.forced]
 
+    def basis(self, omegas: Sequence[float]) -> tuple[np.ndarray, int]:
+        """Design over the forced component, allowed a small frequency error
+        (its first-order terms ``t cos``, ``t sin``), then ``omegas``; and the
+        number of leading forced columns."""
+        forced = design(self.t, self.known)
+        if self.known:
+            tc = (self.t - self.t.mean())[:, None]
+            forced = np.hstack([forced, tc * forced])
+        return np.hstack([forced, design(self.t, omegas)]), forced.shape[1]
+
 
 def _search(records: Sequence[Record], guesses: np.ndarray, dt: float, prominence: float) -> np.ndarray:
     """Peak of the summed Hann periodogram of the records near each guess, or
     NaN where there is no clear peak. Each record's forced component is
-    fitted out and its spectrum ignored within two bins of that frequency."""
+    fitted out and its spectrum ignored within :data:`EXCLUDE` bins of that
+    frequency (an actuator frequency error leaves a residual there)."""
     n_fft = 1 << int(np.ceil(np.log2(8 * max(r.t.size for r in records))))
     grid = 2 * np.pi * np.fft.rfftfreq(n_fft, dt)
     power = np.zeros(grid.size)
     for r in records:
-        X = design(r.t, [*r.known, 0.0])
+        X = r.basis([0.0])[0]
         rest = r.y - X @ coefficients(X, r.y)
         part = np.sum(np.abs(np.fft.rfft(rest * np.hanning(r.t.size)[:, None], n_fft, axis=0)) ** 2, axis=1)
         for w in r.known:
-            part[np.abs(grid - w) < 4 * np.pi / (r.t[-1] - r.t[0])] = 0.0
+            part[np.abs(grid - w) < EXCLUDE * 2 * np.pi / (r.t[-1] - r.t[0])] = 0.0
         power += part
     floor = np.median(power[power > 0])
     nyquist = np.pi / dt
@@ -111,10 +124,10 @@ def _refine(records: Sequence[Record], omegas: np.ndarray, fixed: np.ndarray, it
         jtj = np.zeros((w.size, w.size))
         jtr = np.zeros(w.size)
         for r in records:
-            X = design(r.t, [*r.known, *fixed, *w])
+            X, lead = r.basis([*fixed, *w])
             coef = coefficients(X, r.y)
             resid = r.y - X @ coef
-            lead = 2 * (len(r.known) + fixed.size)
+            lead += 2 * fixed.size
             a, b = coef[lead::2], coef[lead + 1::2]  # (K, c)
             s, c = np.sin(np.outer(r.t, w)), np.cos(np.outer(r.t, w))
             for ch in range(r.y.shape[1]):
@@ -131,23 +144,48 @@ def _refine(records: Sequence[Record], omegas: np.ndarray, fixed: np.ndarray, it
     return w
 
 
+def _significance(records: Sequence[Record], omegas: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """Per frequency, the chi-square statistic of its fitted cosine and sine
+    amplitudes (over records and channels) against their standard errors,
+    divided by its expectation when there is no such component."""
+    z = np.zeros(omegas.size)
+    dof = 0
+    for r in records:
+        X, lead = r.basis([*fixed, *omegas])
+        lead += 2 * fixed.size
+        scale = np.linalg.norm(X, axis=0)
+        inverse = np.diag(la.inv((X / scale).T @ (X / scale))) / scale**2
+        coef = coefficients(X, r.y)
+        s2 = np.sum((r.y - X @ coef) ** 2, axis=0) / max(r.t.size - X.shape[1], 1)
+        var = inverse[lead:, None] * s2[None, :]
+        z += np.sum((coef[lead:] ** 2 / np.maximum(var, 1e-300)).reshape(omegas.size, 2, -1), axis=(1, 2))
+        dof += 2 * r.y.shape[1]
+    return z / dof
+
+
 def free_frequencies(records: Sequence[Record], guesses: Sequence[float], dt: float,
-                     prominence: float = 100.0) -> np.ndarray:
+                     prominence: float = 100.0, significance: float = 300.0) -> np.ndarray:
     """Natural frequencies (rad/s) of the free vibration in the records, one
     per guess (a model's natural frequencies); NaN where the data show no
     clear peak within 15 % of the guess (or half-way to the next guess).
 
     Peaks of the summed Hann periodogram (power above ``prominence`` times its
     median) seed a joint Gauss-Newton fit of all records, in which the modes
-    without a peak keep their guessed frequency; an estimate that leaves its
-    search band is dropped.
+    without a peak keep their guessed frequency. An estimate is dropped when
+    it leaves its search band or when its amplitudes are not significant: their
+    chi-square against the fit's standard errors must exceed ``significance``
+    times its expectation under no component (numerical noise of a
+    noise-free record makes spurious peaks, too).
     """
     guesses = np.asarray(guesses, dtype=float)
     found = _search(records, guesses, dt, prominence)
     ok = np.isfinite(found) & (guesses > 0)
     if not ok.any():
         return found
-    refined = _refine(records, found[ok], np.unique(guesses[~ok]))
+    fixed = np.unique(guesses[~ok])
+    refined = _refine(records, found[ok], fixed)
+    significant = _significance(records, refined, fixed) > significance
     out = np.full(guesses.size, np.nan)
-    out[np.flatnonzero(ok)] = np.where(np.abs(refined / guesses[ok] - 1) < 0.15, refined, np.nan)
+    keep = (np.abs(refined / guesses[ok] - 1) < 0.15) & significant
+    out[np.flatnonzero(ok)] = np.where(keep, refined, np.nan)
     return out

@@ -15,7 +15,6 @@ import numpy as np
 
 FORMAT = "structbench-result"
 FORMAT_VERSION = 1
-STATUSES = ("ok", "converged", "diverged", "max-iterations")
 
 
 @dataclass
