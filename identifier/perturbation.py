@@ -20,8 +20,8 @@ an undamped structure. Their frequencies are the structure's natural
 frequencies as estimated from the records themselves
 (:func:`identifier.harmonic.free_frequencies`, seeded by the postulated
 model; traces of the run without ``omega``, an impulse test say, contribute
-their free response after the last force sample), falling back to the current model's where the records show no clear
-peak; components the record cannot separate from ``omega`` (within half a
+their free response after the last force sample), falling back to the
+current model's where the records show no clear peak; components the record cannot separate from ``omega`` (within half a
 frequency bin) are left out. The force is held over each ``step`` (trace
 format), so its fundamental acts as the fitted amplitude times
 ``(1 - exp(-i omega h)) / (i omega h)`` (its images at ``omega + 2 pi k / h``
@@ -38,12 +38,15 @@ natural frequency found in the records, the eigenvalue sensitivity
 frequency-response equations alone are nearly singular at the true
 parameters (condition about 2e7: Newton's method diverges from Table 4.1's
 postulated values); the measured natural frequencies make it well posed.
+A long soft start suppresses the free vibration that carries them (below the
+sensor noise, at least): start the harmonic tests abruptly or add an impulse
+test to the run.
 
 Stops when ``max |dp / p| < tol`` (converged), when a parameter leaves
 ``(0, inf)`` or the response misfit exceeds ten times its smallest value
 (diverged), or after ``max_iterations``. The result is the iterate with the
-smallest misfit (``details["selected_iteration"]``; the last one whenever the
-iteration converges); ``history`` holds them all.
+smallest misfit (``details["selected_iteration"]``; once converged, the last
+iterates all but agree); ``history`` holds them all.
 """
 from __future__ import annotations
 
