@@ -129,7 +129,9 @@ def table(run: Identification) -> list[str]:
     return lines
 
 
-def run(args: argparse.Namespace) -> int:
+def identify_campaign(args: argparse.Namespace) -> tuple[dict, Path, list[Identification]]:
+    """Identify per ``args`` (as parsed by :func:`add_arguments`) and write the
+    results file; returns the document, its path and the runs."""
     if not args.campaign_dir.is_dir():
         raise IdentificationError(f"no such campaign folder {args.campaign_dir}", field="CAMPAIGN_DIR")
     traces = read_traces(args.campaign_dir)
@@ -139,6 +141,18 @@ def run(args: argparse.Namespace) -> int:
                                 args.model or (model.name if model is not None else traces[0].structure),
                                 options(args))
     path = write_results(result_path(args.campaign_dir, args.method, args.tag), document)
+    return document, path, results
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    """Arguments of ``structbench identify`` from a list of words."""
+    parser = argparse.ArgumentParser(prog="structbench identify")
+    add_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
+    document, path, results = identify_campaign(args)
     if args.json:
         print(json.dumps(document, indent=1))
         return 0

@@ -93,6 +93,7 @@ def summarize(runs: list[dict[str, Any]]) -> dict[str, Any]:
     n = min(len(r["freq_error_pct"]) for r in runs)
     if n:
         out["omega_median"] = np.median([r["omega"][:n] for r in runs], axis=0).tolist()
+        out["omega_true"] = runs[0]["omega_true"][:n]
         out["freq_error_pct_median"] = np.median([r["freq_error_pct"][:n] for r in runs], axis=0).tolist()
     if all("mac" in r for r in runs):
         k = min(len(r["mac"]) for r in runs)
