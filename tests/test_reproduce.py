@@ -1,0 +1,58 @@
+"""The main job end to end with few repetitions: keys, numbers and report."""
+import json
+
+import pytest
+
+from bench.cli import main
+from bench.reproduce import campaign_with_repetitions, CAMPAIGNS
+from models.errors import UserError
+
+
+@pytest.fixture(scope="module")
+def reproduced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    assert main(["reproduce", "--out", str(out), "--repetitions", "3", "--json"]) == 0
+    return out, json.loads((out / "summary.json").read_text())
+
+
+def test_summary_has_every_case(reproduced):
+    _, s = reproduced
+    for key in ("ch3-m4", "ch3-m8"):
+        assert {"rms", "rms_p90", "freq_error_pct"} <= set(s[key])
+        assert s[key]["repetitions"] == 3
+    for key in ("ch4-case1", "ch4-case2"):
+        assert {"rms", "iterations", "rms_history"} <= set(s[key])
+    for key in ("ch4-case1-noisy", "ch4-case2-noisy"):
+        assert {"rms_initial", "rms"} <= set(s[key])
+    for key in ("ch5-beam", "ch5-membrane"):
+        assert {"omega", "freq_error_pct"} <= set(s[key])
+
+
+def test_reproduced_numbers(reproduced):
+    _, s = reproduced
+    assert s["ch3-m8"]["rms"] < 0.05
+    assert max(abs(e) for e in s["ch3-m8"]["freq_error_pct"][2:]) < 1.0
+    assert s["ch4-case1"]["rms_history"][0] == pytest.approx(0.122, abs=1e-3)
+    assert s["ch4-case1"]["rms"] < 1e-3 and s["ch4-case1"]["iterations"] <= 10
+    assert s["ch4-case2"]["rms"] < 1e-3
+    assert s["ch4-case1-noisy"]["rms"] < s["ch4-case1-noisy"]["rms_initial"]
+    # Table 5.1: modes 2-6 exact to 0.6 %, 7-10 aliased to about 6.68, 8.49, 10.20, 11.47 rad/s
+    beam = s["ch5-beam"]
+    assert max(abs(e) for e in beam["freq_error_pct"][1:6]) < 0.6
+    assert beam["omega"][6:10] == pytest.approx([6.682, 8.494, 10.200, 11.465], abs=0.01)
+    assert max(abs(e) for e in s["ch5-membrane"]["lambda_error_pct"]) < 1.0
+
+
+def test_report_and_figures(reproduced):
+    out, _ = reproduced
+    report = (out / "report.md").read_text()
+    assert "| ch3-m8 normalized RMS | 0.0183" in report
+    for png in ("ch3-parameters-m8.png", "ch4-rms-history.png", "ch5-beam-modes.png",
+                "ch5-membrane-modes-joint.png"):
+        assert (out / png).stat().st_size > 10_000
+        assert f"({png})" in report
+
+
+def test_repetitions_must_be_positive():
+    with pytest.raises(UserError, match="--repetitions"):
+        campaign_with_repetitions(CAMPAIGNS / "ch3.toml", 0)
