@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .analysis import Modes, modes
-from .elements import KINDS, ElementType, element_type
+from .elements import KINDS, ElementType
 from .errors import ModelError
 from .statespace import StateSpace
 

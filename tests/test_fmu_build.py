@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
-from test_fmu_fixtures import NAMES, fmus  # noqa: F401  (fixture)
+from fmu_fixtures import NAMES
 
 from bench.cli import main
 from bench.fmu_driver import fmu_checksum

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
-from test_fmu_fixtures import SHEAR_FRAME, fmus  # noqa: F401  (fixture)
+from fmu_fixtures import SHEAR_FRAME
 
 from bench.fmu_driver import FmuSession
 from models import load_model

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_fmu_fixtures import fmus  # noqa: F401  (fixture)
 
 from bench.fmu_driver import FmuError, FmuSession
 from models.errors import UserError

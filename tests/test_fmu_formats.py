@@ -16,7 +16,6 @@ from fmpy import read_model_description
 from fmpy.container_fmu.cli import create_container_fmu
 from fmpy.container_fmu.config import Component, Configuration
 from fmpy.model_description import CoSimulation, ModelDescription, ModelVariable
-from test_fmu_fixtures import fmus  # noqa: F401  (fixture)
 
 from bench.fmu_driver import FmuSession
 from models import load_model

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_fmu_fixtures import fmus  # noqa: F401  (fixture)
 
 from models import load_model
 
