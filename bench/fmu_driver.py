@@ -21,7 +21,7 @@ import shutil
 import sys
 from collections import deque
 from pathlib import Path
-from typing import Callable, Mapping, NamedTuple, Protocol, Sequence
+from typing import Any, Callable, Mapping, NamedTuple, Protocol, Sequence
 
 import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
@@ -289,7 +289,22 @@ def _decode(message: bytes | None) -> str:
     return (message or b"").decode("utf-8", "replace")
 
 
-class Fmi2CoSimulation:
+class _Slave:
+    """Life-cycle calls shared by the co-simulation backends (``self.fmu``: an fmpy slave)."""
+
+    fmu: Any
+
+    def terminate(self) -> None:
+        self.fmu.terminate()
+
+    def free(self) -> None:
+        self.fmu.freeInstance()
+
+    def reset(self) -> None:
+        self.fmu.reset()
+
+
+class Fmi2CoSimulation(_Slave):
     """FMI 2.0 co-simulation: the fast path (ctypes calls on preallocated buffers)."""
 
     def __init__(self, session: FmuSession):
@@ -312,15 +327,6 @@ class Fmi2CoSimulation:
 
     def instantiate(self) -> None:
         self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
-
-    def terminate(self) -> None:
-        self.fmu.terminate()
-
-    def free(self) -> None:
-        self.fmu.freeInstance()
-
-    def reset(self) -> None:
-        self.fmu.reset()
 
     def set_reals(self, refs: list[int], values: list[float]) -> None:
         self.fmu.setReal(refs, values)
@@ -352,7 +358,7 @@ class Fmi2CoSimulation:
                 raise self.session.error("fmi2DoStep", status, t)
 
 
-class Fmi3CoSimulation:
+class Fmi3CoSimulation(_Slave):
     """FMI 3.0 co-simulation through fmpy's ``FMU3Slave`` (Float64 variables)."""
 
     def __init__(self, session: FmuSession):
@@ -367,15 +373,6 @@ class Fmi3CoSimulation:
 
     def instantiate(self) -> None:
         self.fmu.instantiate(loggingOn=True, logMessage=self._logger)
-
-    def terminate(self) -> None:
-        self.fmu.terminate()
-
-    def free(self) -> None:
-        self.fmu.freeInstance()
-
-    def reset(self) -> None:
-        self.fmu.reset()
 
     def set_reals(self, refs: list[int], values: list[float]) -> None:
         self.fmu.setFloat64(refs, values)
