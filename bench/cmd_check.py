@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     if not rows:
         raise UserError("no [check] threshold applies to the results present", field="check")
     for r in rows:
-        print(f"{'PASS' if r['ok'] else 'FAIL'}  {r['results']:24s} {r['gate']:22s} "
+        print(f"{'PASS' if r['ok'] else 'FAIL'}  {r['results']:36s} {r['gate']:22s} "
               f"{r['value']:.4g} (threshold {r['threshold']:g})")
     failed = [r for r in rows if not r["ok"]]
     print(f"{len(rows) - len(failed)} passed, {len(failed)} failed")
