@@ -144,9 +144,6 @@ def trace_motion(trace: Trace, model: Structure, samples: int, interval: float,
         raise IdentificationError(f"{trace.path.name}: least squares needs the acceleration of every DOF; "
                                   f"missing channel(s) {', '.join(missing)}", field="channels")
     forces = trace.forces()
-    if not forces:
-        raise IdentificationError(f"{trace.path.name}: no force channel and no /excitation force",
-                                  field="channels")
     fcols = _dof_columns(trace, forces, model)
     force, fsigma = np.zeros_like(acc[0]), np.zeros_like(acc[0])
     for c, j in zip(forces, fcols):

@@ -108,9 +108,13 @@ class Trace:
                                   f"(channels: {', '.join(self.channels) or 'none'})", field="channels")
 
     def forces(self) -> list[Channel]:
-        """Measured force channels if any, else the commanded ``/excitation`` forces."""
-        measured = self.select("force")
-        return measured or [c for c in self.excitation.values() if c.quantity == "force"]
+        """Measured force channels if any, else the commanded ``/excitation``
+        forces; raises :class:`IdentificationError` when there are neither."""
+        found = self.select("force") or [c for c in self.excitation.values() if c.quantity == "force"]
+        if not found:
+            raise IdentificationError(f"{self.path.name}: no force channel and no /excitation force",
+                                      field="channels")
+        return found
 
 
 def _decode(value: Any) -> Any:
