@@ -143,7 +143,7 @@ def trace_motion(trace: Trace, model: Structure, samples: int, interval: float,
         missing = [f"acceleration_{n}_{d}" for n, d in model.dofs if (n, d) not in have]
         raise IdentificationError(f"{trace.path.name}: least squares needs the acceleration of every DOF; "
                                   f"missing channel(s) {', '.join(missing)}", field="channels")
-    forces = trace.forces()
+    forces = trace.require_forces()
     fcols = _dof_columns(trace, forces, model)
     force, fsigma = np.zeros_like(acc[0]), np.zeros_like(acc[0])
     for c, j in zip(forces, fcols):

@@ -138,7 +138,7 @@ def harmonic_tests(traces: Sequence[Trace], model: Structure
         if [c.dof for c in here] != [c.dof for c in sensors]:
             raise IdentificationError(f"{trace.path.name}: its {quantity} sensors differ from those of "
                                       f"{harmonic[0].path.name}", field="channels")
-        forces = trace.forces()
+        forces = trace.require_forces()
         keep = trace.time >= _window_start(trace) - 1e-9 * trace.dt
         if keep.sum() < 16:
             raise IdentificationError(f"{trace.path.name}: fewer than 16 samples after the soft start",

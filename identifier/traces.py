@@ -108,9 +108,12 @@ class Trace:
                                   f"(channels: {', '.join(self.channels) or 'none'})", field="channels")
 
     def forces(self) -> list[Channel]:
-        """Measured force channels if any, else the commanded ``/excitation``
-        forces; raises :class:`IdentificationError` when there are neither."""
-        found = self.select("force") or [c for c in self.excitation.values() if c.quantity == "force"]
+        """Measured force channels if any, else the commanded ``/excitation`` forces."""
+        return self.select("force") or [c for c in self.excitation.values() if c.quantity == "force"]
+
+    def require_forces(self) -> list[Channel]:
+        """:meth:`forces`, raising :class:`IdentificationError` when there are none."""
+        found = self.forces()
         if not found:
             raise IdentificationError(f"{self.path.name}: no force channel and no /excitation force",
                                       field="channels")
