@@ -50,7 +50,7 @@ iterates all but agree); ``history`` holds them all.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -234,31 +234,13 @@ def _count_check(model: Structure, n_tests: int, n_sensors: int, n_natural: int)
                                   field="frequencies")
 
 
-def identify(traces: Sequence[Trace], model: Structure, max_iterations: int = 20, tol: float = 1e-8,
-             natural_frequencies: bool = False) -> Identification:
-    """Perturbation identification from the harmonic tests of one repetition;
-    ``model`` carries the postulated parameters."""
-    if not isinstance(model, Structure):
-        raise IdentificationError(f"the perturbation method needs a finite-element model; {model.name} is "
-                                  "modal", field="model")
-    if len({t.dt for t in traces}) > 1:
-        raise IdentificationError("the traces of one run must share their sampling interval dt; got "
-                                  f"{sorted({t.dt for t in traces})}", field="dt")
-    tests, quantity, sensors, index, free = harmonic_tests(traces, model)
-    records = [Record(t.t, t.sensors, t.omega) for t in tests] + free
-    natural = free_frequencies(records, model.modes().omega, traces[0].dt)
-    _count_check(model, len(tests), len(sensors), int(np.isfinite(natural).sum()) if natural_frequencies else 0)
-    mask = model.kind_mask()
-    labels = [p.label for p, u in zip(model.parameters, mask) if u]
-    p = model.values.copy()
+def _iterate(system: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, float]], p: np.ndarray,
+             mask: np.ndarray, labels: list[str], max_iterations: int, tol: float
+             ) -> tuple[str, str, list[np.ndarray], list[float]]:
+    """Apply corrections ``B dp = c`` to the unknown entries (``mask``) of ``p``
+    until converged, diverged or out of iterations; returns the status, a
+    message, the unknowns per iteration (row 0: the start) and the misfits."""
     history, misfits = [p[mask].copy()], []
-
-    def system(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        current = model.with_values(values)
-        free = np.where(np.isfinite(natural), natural, current.modes().omega)
-        return equations(current, responses(tests, quantity, free, model.n_dof), index,
-                         natural if natural_frequencies else None)
-
     status, message = "max-iterations", f"no convergence in {max_iterations} iterations"
     for _ in range(max_iterations):
         B, c, misfit = system(p)
@@ -279,6 +261,34 @@ def identify(traces: Sequence[Trace], model: Structure, max_iterations: int = 20
             break
     if len(misfits) < len(history):
         misfits.append(system(p)[2])
+    return status, message, history, misfits
+
+
+def identify(traces: Sequence[Trace], model: Structure, max_iterations: int = 20, tol: float = 1e-8,
+             natural_frequencies: bool = False) -> Identification:
+    """Perturbation identification from the harmonic tests of one repetition;
+    ``model`` carries the postulated parameters."""
+    if not isinstance(model, Structure):
+        raise IdentificationError(f"the perturbation method needs a finite-element model; {model.name} is "
+                                  "modal", field="model")
+    if len({t.dt for t in traces}) > 1:
+        raise IdentificationError("the traces of one run must share their sampling interval dt; got "
+                                  f"{sorted({t.dt for t in traces})}", field="dt")
+    tests, quantity, sensors, index, free = harmonic_tests(traces, model)
+    records = [Record(t.t, t.sensors, t.omega) for t in tests] + free
+    natural = free_frequencies(records, model.modes().omega, traces[0].dt)
+    _count_check(model, len(tests), len(sensors), int(np.isfinite(natural).sum()) if natural_frequencies else 0)
+    mask = model.kind_mask()
+
+    def system(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        current = model.with_values(values)
+        free = np.where(np.isfinite(natural), natural, current.modes().omega)
+        return equations(current, responses(tests, quantity, free, model.n_dof), index,
+                         natural if natural_frequencies else None)
+
+    status, message, history, misfits = _iterate(system, model.values.copy(), mask,
+                                                 [p.label for p, u in zip(model.parameters, mask) if u],
+                                                 max_iterations, tol)
     best = int(np.argmin(misfits))
     initial = model.values[mask]
     chosen = [q for q, u in zip(model.parameters, mask) if u]
