@@ -205,11 +205,3 @@ def trace_files(source: str | Path | list[str | Path]) -> list[Path]:
 def read_traces(source: str | Path | list[str | Path]) -> list[Trace]:
     """All traces of a campaign folder (or the given files), sorted by (test, repetition)."""
     return sorted((read_trace(p) for p in trace_files(source)), key=lambda t: (t.test, t.repetition))
-
-
-def by_repetition(traces: list[Trace]) -> dict[int, list[Trace]]:
-    """Traces grouped by repetition index (ascending), each group in (test) order."""
-    groups: dict[int, list[Trace]] = {}
-    for trace in sorted(traces, key=lambda t: (t.repetition, t.test)):
-        groups.setdefault(trace.repetition, []).append(trace)
-    return groups

@@ -198,10 +198,6 @@ class Structure:
         return [sp.csr_matrix((vals[order[a:b]], (rows[order[a:b]], cols[order[a:b]])), shape=(n, n))
                 for a, b in zip(bounds[:-1], bounds[1:])]
 
-    def derivative_stack(self, kind: str) -> list[sp.csr_matrix]:
-        """Derivative matrices of the parameters of one kind, in parameter order."""
-        return [d for d, p in zip(self.derivatives, self.parameters) if p.kind == kind]
-
     @cached_property
     def _kinds(self) -> np.ndarray:
         return np.array([p.kind for p in self.parameters])

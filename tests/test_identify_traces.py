@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from identifier.errors import IdentificationError
-from identifier.traces import by_repetition, read_trace, read_traces
+from identifier.traces import read_trace, read_traces
 from identify_synth import harmonic_force, respond, write_trace
 from models import load_model
 
@@ -43,7 +43,6 @@ def test_campaign_folder_sorted_by_test_and_repetition(trace_path):
             dst.attrs.update(dict(src.attrs) | {"test": test, "repetition": rep})
     traces = read_traces(trace_path.parent.parent)
     assert [(t.test, t.repetition) for t in traces] == [("a", 0), ("b", 0), ("b", 1)]
-    assert [len(g) for g in by_repetition(traces).values()] == [2, 1]
 
 
 def test_missing_channel_is_named(trace_path):
