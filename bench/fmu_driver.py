@@ -290,9 +290,17 @@ def _decode(message: bytes | None) -> str:
 
 
 class _Slave:
-    """Life-cycle calls shared by the co-simulation backends (``self.fmu``: an fmpy slave)."""
+    """Instantiation and life-cycle calls shared by the co-simulation backends
+    (``slave_class``: fmpy's slave class of the FMI version)."""
 
-    fmu: Any
+    slave_class: Any
+
+    def __init__(self, session: FmuSession):
+        self.session = session
+        md = session.model_description
+        self.fmu = self.slave_class(guid=md.guid, unzipDirectory=session.unzipdir,
+                                    modelIdentifier=md.coSimulation.modelIdentifier,
+                                    instanceName=session.instance_name)
 
     def terminate(self) -> None:
         self.fmu.terminate()
@@ -307,12 +315,10 @@ class _Slave:
 class Fmi2CoSimulation(_Slave):
     """FMI 2.0 co-simulation: the fast path (ctypes calls on preallocated buffers)."""
 
+    slave_class = FMU2Slave
+
     def __init__(self, session: FmuSession):
-        self.session = session
-        md = session.model_description
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=session.unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName=session.instance_name)
+        super().__init__(session)
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = fmi2CallbackLoggerTYPE(
             lambda env, instance, status, category, message: session.on_log(status, _decode(message)))
@@ -361,12 +367,7 @@ class Fmi2CoSimulation(_Slave):
 class Fmi3CoSimulation(_Slave):
     """FMI 3.0 co-simulation through fmpy's ``FMU3Slave`` (Float64 variables)."""
 
-    def __init__(self, session: FmuSession):
-        self.session = session
-        md = session.model_description
-        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=session.unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName=session.instance_name)
+    slave_class = FMU3Slave
 
     def _logger(self, env: object, status: int, category: bytes, message: bytes) -> None:
         self.session.on_log(status, _decode(message))
