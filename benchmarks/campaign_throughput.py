@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.campaign import load_campaign
-from bench.parallel import prepare_fmu, run_campaign
+from structbench.harness.campaign import load_campaign
+from structbench import run_campaign
+from structbench.harness.fmu_setup import prepare_fmu
 
 ROOT = Path(__file__).resolve().parent.parent
 OMEGAS = ", ".join(f"{w:g}" for w in np.arange(1, 25) * 0.25)

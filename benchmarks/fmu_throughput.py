@@ -21,9 +21,9 @@ from typing import Callable
 import numpy as np
 from fmpy import simulate_fmu
 
-from bench.fmu_driver import FmuSession
-from models import load_model
-from models.fmu import build_fmu
+from structbench.harness.fmu_session import FmuSession
+from structbench.models import load_model
+from structbench.fmus import build_fmu
 
 
 def timed(fn: Callable[[], object], repeat: int = 3) -> float:

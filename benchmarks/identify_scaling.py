@@ -19,8 +19,8 @@ import tracemalloc
 import numpy as np
 import scipy.linalg as la
 
-from identifier.least_squares import DENSE_COLUMNS, Motion, solve
-from models.library import beam
+from structbench.identifier.least_squares import DENSE_COLUMNS, Motion, solve
+from structbench.models.library import beam
 
 SAMPLES = 0.5 * np.arange(1, 9)
 

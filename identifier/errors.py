@@ -1,7 +1,7 @@
 """Errors of the identifiers: bad or insufficient input, reported without numbers."""
 from __future__ import annotations
 
-from models.errors import UserError
+from structbench.models.errors import UserError
 
 
 class IdentificationError(UserError):

@@ -41,7 +41,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from models import ModelError, Structure
+from structbench.models import ModelError, Structure
 
 from .errors import IdentificationError
 from .integrate import METHODS, integrate

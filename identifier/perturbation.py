@@ -56,7 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
-from models import ModelError, Structure
+from structbench.models import ModelError, Structure
 
 from .errors import IdentificationError
 from .harmonic import Record, amplitudes, free_frequencies, resolvable

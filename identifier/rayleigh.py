@@ -43,7 +43,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.linalg as la
 
-from models import ModalModel, Model, ModelError, Structure
+from structbench.models import ModalModel, Model, ModelError, Structure
 
 from .errors import IdentificationError
 from .results import Identification

@@ -1,4 +1,5 @@
-"""Finite-element and modal models of structures (SI units throughout)."""
+"""Finite-element and modal models of structures (SI units throughout) and
+their exact dynamics. Imports nothing else of structbench."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fmu.runtime import first_order, zoh
+from .dynamics import first_order, zoh
 
 
 @dataclass

@@ -7,9 +7,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from bench.cli import main
-from bench.parallel import run_campaign
-from bench.score import score_campaign
+from structbench.cli import main
+from structbench import run_campaign
+from structbench.evaluation.scores import score_campaign
 
 CAMPAIGNS = Path(__file__).resolve().parents[1] / "campaigns"
 

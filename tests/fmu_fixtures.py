@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from models import DISSERTATION, load_model
-from models.fmu import build_fmu
+from structbench.models import DISSERTATION, load_model
+from structbench.fmus import build_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 SHEAR_FRAME = str(ROOT / "docs" / "examples" / "shear-frame-3.toml")

@@ -1,36 +1,109 @@
-"""The data flows one way: models -> FMU -> bench -> traces -> identifier -> scoring."""
+"""The package's shape: one namespace, the import rules between its parts,
+small modules. The data flows one way: models -> fmus -> harness -> traces ->
+identifier -> evaluation; the CLI sits on the API alone."""
 import ast
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+# folder -> its name inside the structbench namespace (pyproject's package-dir)
+PACKAGES = {"models": "structbench.models", "fmus": "structbench.fmus", "identifier": "structbench.identifier",
+            "bench": "structbench"}
 
 
-def imported_packages(package: str) -> dict[str, set[str]]:
-    """Top-level packages imported by each module of ``package``."""
-    out = {}
-    for path in (ROOT / package).rglob("*.py"):
-        found = set()
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.Import):
-                found |= {a.name.split(".")[0] for a in node.names}
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                found.add(node.module.split(".")[0])
-        out[str(path.relative_to(ROOT))] = found
-    return out
+def module_name(path: Path) -> str:
+    folder, *rest = path.relative_to(ROOT).with_suffix("").parts
+    parts = [PACKAGES.get(folder, folder), *rest]
+    return ".".join(p for p in parts if p != "__init__")
 
 
-@pytest.mark.parametrize("package, forbidden", [("identifier", {"bench"}), ("models", {"bench", "identifier"})])
-def test_no_import_against_the_data_flow(package, forbidden):
-    bad = {module: sorted(found & forbidden) for module, found in imported_packages(package).items()
-           if found & forbidden}
-    assert not bad
+def imports(path: Path) -> set[str]:
+    """Absolute names of the structbench modules imported by one file
+    (relative imports resolved; ``from X import y`` gives ``X.y``)."""
+    package = module_name(path) if path.name == "__init__.py" else module_name(path).rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([base] if base else []))
+            found |= {f"{base}.{a.name}" for a in node.names} | {base}
+    return {name for name in found if name.split(".")[0] in ("structbench", *PACKAGES)}
+
+
+def sources(folder: str) -> list[Path]:
+    return sorted((ROOT / folder).rglob("*.py"))
+
+
+def under(name: str, *prefixes: str) -> bool:
+    return any(name == p or name.startswith(p + ".") for p in prefixes)
+
+
+def test_nothing_imports_the_old_top_level_names():
+    bad = {str(p.relative_to(ROOT)): sorted(n for n in imports(p) if not under(n, "structbench"))
+           for folder in (*PACKAGES, "tests", "benchmarks") for p in sources(folder)}
+    assert not {k: v for k, v in bad.items() if v}
+
+
+@pytest.mark.parametrize("folder, allowed", [
+    ("models", ("structbench.models",)),
+    ("fmus", ("structbench.fmus", "structbench.models")),
+    ("identifier", ("structbench.identifier", "structbench.models")),
+])
+def test_layer_imports_only_what_it_may(folder, allowed):
+    bad = {str(p.relative_to(ROOT)): sorted(n for n in imports(p) if not under(n, *allowed)) for p in sources(folder)}
+    assert not {k: v for k, v in bad.items() if v}
+
+
+def test_the_cli_imports_only_the_api():
+    bad = {str(p.relative_to(ROOT)): sorted(n for n in imports(p)
+                                            if not under(n, "structbench.cli", "structbench.api") and n != "structbench")
+           for p in sources("bench/cli")}
+    assert not {k: v for k, v in bad.items() if v}
+
+
+def test_harness_and_identification_keep_to_their_side():
+    harness = {n for p in sources("bench/harness") for n in imports(p)}
+    identification = {n for p in sources("bench/identification") for n in imports(p)}
+    assert not [n for n in harness if under(n, "structbench.identifier", "structbench.identification",
+                                             "structbench.evaluation", "structbench.cli")]
+    assert not [n for n in identification if under(n, "structbench.harness", "structbench.fmus",
+                                                   "structbench.evaluation", "structbench.cli")]
+
+
+def test_every_package_init_says_what_it_owns_and_may_import():
+    for init in [ROOT / f / "__init__.py" for f in PACKAGES] + sorted((ROOT / "bench").glob("*/__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text()))
+        assert doc and "import" in doc.lower(), init
+
+
+def test_no_module_above_400_lines():
+    long = {str(p.relative_to(ROOT)): n for folder in PACKAGES for p in sources(folder)
+            if (n := len(p.read_text().splitlines())) > 400}
+    assert not long
+
+
+def test_no_two_modules_differ_only_in_form():
+    """score/scores, check/checks, report/reporting ... would make a reader guess."""
+    def stem(name: str) -> str:
+        for suffix in ("ing", "es", "s"):
+            if name.endswith(suffix) and len(name) > len(suffix) + 2:
+                return name[:-len(suffix)]
+        return name
+
+    for folder in [ROOT / f for f in PACKAGES] + sorted(p for p in (ROOT / "bench").iterdir() if p.is_dir()):
+        names = [p.stem for p in folder.glob("*.py") if p.stem not in ("__init__", "__main__")]
+        stems = [stem(n) for n in names]
+        assert len(set(stems)) == len(stems), (folder, sorted(names))
 
 
 def test_identifiers_never_name_the_truth_file():
     """No string in identifier/ code (docstrings aside) names truth.json."""
-    for path in (ROOT / "identifier").rglob("*.py"):
+    for path in sources("identifier"):
         tree = ast.parse(path.read_text())
         docstrings = {id(node.value) for node in ast.walk(tree) if isinstance(node, ast.Expr)}
         strings = [node.value for node in ast.walk(tree) if isinstance(node, ast.Constant)

@@ -5,11 +5,11 @@ from pathlib import Path
 
 import pytest
 
-import bench.fmu_driver
-from bench.campaign import CampaignError, load_campaign
-from bench.cli import main
-from bench.parallel import run_campaign
-from bench.toml_lines import key_lines
+import structbench.harness.fmu_session
+from structbench.harness.campaign import CampaignError, load_campaign
+from structbench.cli import main
+from structbench import run_campaign
+from structbench.harness.toml_lines import key_lines
 
 CAMPAIGNS = Path(__file__).resolve().parent.parent / "campaigns"
 
@@ -91,7 +91,7 @@ def no_simulation(monkeypatch):
     """Any FMU session opened fails the test."""
     def forbidden(*args, **kwargs):
         raise AssertionError("an FMU was opened before validation finished")
-    monkeypatch.setattr(bench.fmu_driver, "FmuSession", forbidden)
+    monkeypatch.setattr(structbench.harness.fmu_session, "FmuSession", forbidden)
 
 
 def test_good_campaign_parses(tmp_path):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from bench.parallel import run_campaign
+from structbench import run_campaign
 from bench_fixtures import assert_same_traces
 
 distributed = pytest.importorskip("distributed")

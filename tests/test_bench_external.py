@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
-from bench.campaign import CampaignError, load_campaign
-from bench.cli import main
+from structbench.harness.campaign import CampaignError, load_campaign
+from structbench.cli import main
 from bench_fixtures import build_two_mass
 
 CAMPAIGN = """\

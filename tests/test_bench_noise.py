@@ -7,8 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from bench.excitation import ramp_envelope
-from bench.parallel import run_campaign
+from structbench.harness.excitation import ramp_envelope
+from structbench import run_campaign
 from bench_fixtures import assert_same_traces
 
 CAMPAIGN = """\
@@ -127,16 +127,16 @@ def test_actuator_noise_changes_what_the_structure_feels(out):
 
 
 def test_sensor_noise_repetitions_share_one_simulation(tmp_path, tmp_path_factory, monkeypatch):
-    import bench.runner
+    import structbench.harness.simulation
 
     calls: list[str] = []
-    real = bench.runner.simulate
+    real = structbench.harness.simulation.simulate
 
     def counting(rig, bench_, test, items):
         calls.append(test.name)
         return real(rig, bench_, test, items)
 
-    monkeypatch.setattr(bench.runner, "simulate", counting)
+    monkeypatch.setattr(structbench.harness.simulation, "simulate", counting)
     path = tmp_path / "noise.toml"
     path.write_text(CAMPAIGN.format(seed=5).replace("duration = 40.0", "duration = 1.0"))
     run_campaign(path, tmp_path / "out", jobs=0, fmu_dir=tmp_path_factory.getbasetemp() / "fmus")

@@ -8,8 +8,8 @@ import subprocess
 import sys
 import time
 
-from bench.cli import main
-from bench.parallel import run_campaign
+from structbench.cli import main
+from structbench import run_campaign
 from bench_fixtures import assert_same_traces
 
 CAMPAIGN = """\
@@ -60,7 +60,7 @@ def test_killed_and_resumed_campaign_equals_an_uninterrupted_one(tmp_path):
 
     killed = tmp_path / "killed"
     traces = killed / "traces"
-    process = subprocess.Popen([sys.executable, "-m", "bench.cli", "run", str(campaign), "--out", str(killed),
+    process = subprocess.Popen([sys.executable, "-m", "structbench.cli", "run", str(campaign), "--out", str(killed),
                                 "--jobs", "1", "--fmu-dir", str(fmus)], start_new_session=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 120

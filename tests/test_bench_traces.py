@@ -7,10 +7,10 @@ import h5py
 import numpy as np
 import pytest
 
-from bench.channels import Channel
-from bench.cli import main
-from bench.parallel import run_campaign
-from bench.trace_writer import ChannelData, Trace, software, write_trace
+from structbench.harness.channels import Channel
+from structbench.cli import main
+from structbench import run_campaign
+from structbench.harness.trace_writer import ChannelData, Trace, software, write_trace
 
 DOCUMENTED_ROOT = {"format", "format_version", "campaign", "test", "repetition", "structure", "fmu_name",
                    "fmu_sha256", "software", "seed", "dt"}

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
+from structbench.cli import main
 from e2e_fixtures import CAMPAIGNS, derive, identify, run
 
 # Table 3.4, actual natural frequencies of the beam (rad/s)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import main
+from structbench.cli import main
 from e2e_fixtures import derive, identify, run
 
 # Normalized RMS error of Table 4.1's postulated parameters (reference: 12.2 %, 2.93 %)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
+from structbench.cli import main
 from e2e_fixtures import derive, identify, run
 
 # simply supported beam, m = 1 kg/m, EI = 1 N m^2, L = 10 m: omega_r = (r pi / L)^2

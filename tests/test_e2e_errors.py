@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import main
+from structbench.cli import main
 from e2e_fixtures import derive, run
-from identifier import least_squares
-from identifier.errors import IdentificationError
-from identifier.traces import read_traces
-from models import load_model
+from structbench.identifier import least_squares
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.traces import read_traces
+from structbench.models import load_model
 
 
 @pytest.fixture(scope="module")

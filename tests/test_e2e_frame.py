@@ -12,9 +12,9 @@ import h5py
 import numpy as np
 import pytest
 
-from bench.external import fmu_variables
+from structbench.harness.external import fmu_variables
 from e2e_fixtures import identify, run, toml_text
-from models import load_model
+from structbench.models import load_model
 
 SHEAR_FRAME = Path(__file__).resolve().parents[1] / "docs" / "examples" / "shear-frame-3.toml"
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from models import load_model
-from models.elements import Beam, Dashpot, PointMass, Spring, Tri3Membrane
+from structbench.models import load_model
+from structbench.models.elements import Beam, Dashpot, PointMass, Spring, Tri3Membrane
 
 
 def test_beam_matrices_are_the_hermite_closed_forms():

@@ -11,10 +11,10 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from fmu_fixtures import NAMES
 
-from bench.cli import main
-from bench.fmu_driver import fmu_checksum
-from models import load_model
-from models.fmu import build_fmu
+from structbench.cli import main
+from structbench.harness.fmu_session import fmu_checksum
+from structbench.models import load_model
+from structbench.fmus import build_fmu
 
 
 @pytest.mark.parametrize("name", NAMES, ids=[Path(n).stem for n in NAMES])

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 from fmu_fixtures import SHEAR_FRAME
 
-from bench.fmu_driver import FmuSession
-from models import load_model
+from structbench.harness.fmu_session import FmuSession
+from structbench.models import load_model
 
 
 def responses(model) -> list[str]:

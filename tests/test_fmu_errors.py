@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.fmu_driver import FmuError, FmuSession
-from models.errors import UserError
+from structbench.harness.fmu_session import FmuError, FmuSession
+from structbench.models.errors import UserError
 
 
 def test_negative_mass_is_rejected_with_a_readable_message(fmus):

@@ -17,9 +17,9 @@ from fmpy.container_fmu.cli import create_container_fmu
 from fmpy.container_fmu.config import Component, Configuration
 from fmpy.model_description import CoSimulation, ModelDescription, ModelVariable
 
-from bench.fmu_driver import FmuSession
-from models import load_model
-from models.statespace import StateSpace
+from structbench.harness.fmu_session import FmuSession
+from structbench.models import load_model
+from structbench.models.statespace import StateSpace
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import load_model
+from structbench.models import load_model
 
 SCRIPT = textwrap.dedent("""
     import importlib.util, json, sys

@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
-from identifier import least_squares, rayleigh
-from identifier.results import read_results
-from identifier.traces import read_trace
+from structbench.cli import main
+from structbench.identifier import least_squares, rayleigh
+from structbench.identifier.results import read_results
+from structbench.identifier.traces import read_trace
 from identify_synth import harmonic_force, respond, write_trace
-from models import load_model
+from structbench.models import load_model
 
 SHEAR_FRAME = Path(__file__).resolve().parents[1] / "docs" / "examples" / "shear-frame-3.toml"
 

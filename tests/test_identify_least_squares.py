@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identifier.errors import IdentificationError
-from identifier.least_squares import identify
-from identifier.traces import read_trace, read_traces
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.least_squares import identify
+from structbench.identifier.traces import read_trace, read_traces
 from identify_synth import respond, write_trace
-from models import load_model
+from structbench.models import load_model
 
 DT, DURATION = 0.01, 4.0
 SEEDS = range(20)
@@ -158,7 +158,7 @@ def test_sample_time_beyond_the_record(beam, clean_trace):
 def test_dependent_columns_are_named():
     """Velocities proportional to displacements make each damping column a
     multiple of its stiffness column (same element pattern)."""
-    from identifier.least_squares import Motion, solve
+    from structbench.identifier.least_squares import Motion, solve
 
     model = load_model("ch3-damped-beam")
     rng = np.random.default_rng(1)

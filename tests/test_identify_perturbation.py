@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identifier.errors import IdentificationError
-from identifier.harmonic import Record, free_frequencies
-from identifier.perturbation import harmonic_tests, identify, responses
-from identifier.traces import read_trace
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.harmonic import Record, free_frequencies
+from structbench.identifier.perturbation import harmonic_tests, identify, responses
+from structbench.identifier.traces import read_trace
 from identify_synth import harmonic_force, respond, write_trace
-from models import load_model
+from structbench.models import load_model
 
 DT, DURATION = 0.025, 200.0
 CASE2_OMEGAS = 0.5 * np.arange(1, 13)

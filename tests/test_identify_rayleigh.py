@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identifier.errors import IdentificationError
-from identifier.rayleigh import cosine_functions, identify
-from identifier.traces import read_trace
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.rayleigh import cosine_functions, identify
+from structbench.identifier.traces import read_trace
 from identify_synth import respond, write_trace
-from models import load_model
+from structbench.models import load_model
 
 MEMBRANE_TABLE = np.array([0.0, 1.1912, 1.1915, 2.7641, 5.8445])  # Table 5.2, omega^2
 

@@ -5,10 +5,10 @@ import h5py
 import numpy as np
 import pytest
 
-from identifier.errors import IdentificationError
-from identifier.traces import read_trace, read_traces
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.traces import read_trace, read_traces
 from identify_synth import harmonic_force, respond, write_trace
-from models import load_model
+from structbench.models import load_model
 
 
 @pytest.fixture()

@@ -5,9 +5,9 @@ import sys
 import numpy as np
 import pytest
 
-from bench.cli import main
-from models import ModelError, load_model
-from models.library import beam
+from structbench.cli import main
+from structbench.models import ModelError, load_model
+from structbench.models.library import beam
 
 FRAME = """
 name = "f"
@@ -72,7 +72,7 @@ def test_cli_reports_user_errors_with_status_2(tmp_path, capsys):
 
 
 def test_cli_subprocess_has_no_traceback(tmp_path):
-    res = subprocess.run([sys.executable, "-m", "bench.cli", "modes", "no-such-structure"],
+    res = subprocess.run([sys.executable, "-m", "structbench.cli", "modes", "no-such-structure"],
                          capture_output=True, text=True)
     assert res.returncode == 2
     assert "unknown structure 'no-such-structure'" in res.stderr

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from models import load_model
-from models.library import ch5_simply_supported_beam, ch5_simply_supported_fe
+from structbench.models import load_model
+from structbench.models.library import ch5_simply_supported_beam, ch5_simply_supported_fe
 
 TABLE_3_4_ACTUAL = [0, 0, 0.064455, 0.206939, 0.408213, 0.719599, 1.096452, 1.524039, 1.999755, 2.575960]
 TABLE_5_2_ACTUAL = [0, 1.1912, 1.1915, 2.7641, 5.8445, 5.8544, 7.8315, 9.4418, 12.0000,
@@ -72,8 +72,8 @@ def test_postulated_models_have_the_table_4_1_initial_error():
 def test_sparse_shift_invert_agrees_with_dense_on_a_large_free_beam():
     from scipy.linalg import eigh
 
-    from models.analysis import DENSE_LIMIT
-    from models.library import beam
+    from structbench.models.analysis import DENSE_LIMIT
+    from structbench.models.library import beam
 
     rng = np.random.default_rng(5)
     n = 320

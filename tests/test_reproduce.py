@@ -3,9 +3,9 @@ import json
 
 import pytest
 
-from bench.cli import main
-from bench.reproduce import campaign_with_repetitions, CAMPAIGNS
-from models.errors import UserError
+from structbench.cli import main
+from structbench.evaluation.reproduce import campaign_with_repetitions, CAMPAIGNS
+from structbench.models.errors import UserError
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from bench.scoring import frequency_error_pct, mac, normalized_rms, relative_errors
+from structbench.evaluation.metrics import frequency_error_pct, mac, normalized_rms, relative_errors
 
 
 def test_normalized_rms_of_the_ch4_postulated_case1_model():

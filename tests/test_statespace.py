@@ -2,8 +2,8 @@
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from models.library import beam
-from models.library import ch5_simply_supported_beam
+from structbench.models.library import beam
+from structbench.models.library import ch5_simply_supported_beam
 
 
 def test_zoh_matches_solve_ivp_on_a_damped_beam():

@@ -1,0 +1,131 @@
+"""The Python API: one call per job, each returning plain data and printing
+nothing (the command line is a thin layer over these).
+
+    import structbench as sb
+    sb.run_campaign("campaigns/ch3.toml", "out/ch3")            # traces, truth.json, status.json
+    doc = sb.identify("out/ch3", "least-squares", groups=["harmonic"], samples=8)
+    scores = sb.score("out/ch3")                                 # per results file: summary and runs
+    gates = sb.check("out/ch3")                                  # rows of [check] gates
+
+Units are SI throughout (rad/s, m, N, kg).
+"""
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from structbench.evaluation.gates import check_campaign
+from structbench.evaluation.report import table_rows, write_report
+from structbench.evaluation.reproduce import run_all, summarize
+from structbench.evaluation.scores import score_campaign
+from structbench.fmus import build_fmu, built_module, default_fmu_dir, fmu_filename
+from structbench.harness.campaign import Campaign, load_campaign
+from structbench.harness.folder import CampaignStatus
+from structbench.harness.listing import listing
+from structbench.harness.run import run_campaign
+from structbench.identification.methods import Method, methods
+from structbench.identification.runs import identify_folder
+from structbench.identifier.results import result_path
+from structbench.models import DISSERTATION, load_model
+from structbench.models.errors import UserError
+
+__all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
+           "identify", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
+           "results_file", "run_campaign", "score"]
+
+
+@dataclass(frozen=True)
+class BuiltFmu:
+    """An FMU of :func:`build_fmus`: its structure, file, whether it was
+    (re)built now (False: already up to date) and the model's DOF count."""
+
+    structure: str
+    path: Path
+    built: bool
+    n_dof: int
+
+
+def modes(structure: str | Path, count: int = 10) -> dict[str, Any]:
+    """Natural frequencies of a built-in structure or TOML model:
+    ``{"structure", "n_dof", "omega" (rad/s, rigid-body 0.0), "lambda" (omega^2)}``."""
+    if count < 1:
+        raise UserError("must be at least 1", field="--count")
+    model = load_model(structure)
+    m = model.modes(count)
+    return {"structure": model.name, "n_dof": model.n_dof,
+            "omega": [float(w) for w in m.omega], "lambda": [float(v) for v in m.lam]}
+
+
+def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path | None = None) -> list[BuiltFmu]:
+    """Build FMI 2.0 co-simulation FMUs of built-in structures or TOML models
+    (default: the dissertation's five) into ``out`` (default
+    :func:`~structbench.fmus.default_fmu_dir`); FMUs already built from the
+    same model and code are left untouched."""
+    folder = Path(out) if out is not None else default_fmu_dir()
+    if folder.exists() and not folder.is_dir():
+        raise UserError("is a file, expected a folder", field="--out")
+    built = []
+    for model in [load_model(name) for name in structures or DISSERTATION]:
+        target = folder / fmu_filename(model.name)
+        before = built_module(target) if target.exists() else None
+        path = build_fmu(model, folder)
+        built.append(BuiltFmu(model.name, path, built_module(path) != before, model.n_dof))
+    return built
+
+
+def list_traces(folder: str | Path) -> dict[str, Any]:
+    """What a campaign folder holds: status summary, truth presence, tests
+    with their trace files, sampling (s) and channels."""
+    return listing(Path(folder))
+
+
+def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None = None,
+             groups: Sequence[str] | None = None, tests: Sequence[str] | None = None, joint: bool = False,
+             tag: str | None = None, **options: Any) -> dict[str, Any]:
+    """Identify every run of a campaign folder with ``method`` (see
+    :func:`methods`; its options as keywords, e.g. ``samples=8``) and write
+    ``results/<method>[-<tag>].json``; returns that document
+    (docs/results-format.md)."""
+    document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
+                                  groups, tests, joint, tag, options)
+    return document
+
+
+def results_file(campaign_dir: str | Path, method: str, tag: str | None = None) -> Path:
+    """Where :func:`identify` writes: ``CAMPAIGN_DIR/results/<method>[-<tag>].json``."""
+    return result_path(campaign_dir, method, tag)
+
+
+def score(campaign_dir: str | Path) -> dict[str, Any]:
+    """Scores of every results file against ``truth.json``, keyed by file
+    stem: ``{"method", "summary" (medians, 10-90 % spreads), "runs"}``."""
+    return score_campaign(campaign_dir)
+
+
+def check(campaign_dir: str | Path) -> list[dict[str, Any]]:
+    """The campaign's ``[check]`` gates against its scores: one row per
+    (results file, gate) with ``value``, ``threshold`` and ``ok``."""
+    return check_campaign(campaign_dir)
+
+
+def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, jobs: int | None = None,
+              progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """The dissertation end to end: every case through FMUs, traces,
+    identifiers and scoring into ``out``; writes ``summary.json`` and
+    ``report.md`` (with figures) there and returns the summary. ``progress``
+    receives one line per stage. A second call resumes."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    scores = run_all(out, repetitions, jobs, progress or (lambda line: None))
+    summary = summarize(scores)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    write_report(out, summary, scores)
+    return summary
+
+
+def reproduce_table(summary: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """Rows (case, the dissertation's figure, this run's) of a reproduce summary."""
+    return table_rows(summary)

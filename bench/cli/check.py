@@ -1,0 +1,23 @@
+"""``structbench check``: exit 1 when a threshold of the campaign's ``[check]`` table fails."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from structbench import api
+
+HELP = "gate: exit 1 if the campaign's [check] thresholds are not met by its scores"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR")
+
+
+def run(args: argparse.Namespace) -> int:
+    rows = api.check(args.campaign_dir)
+    for r in rows:
+        print(f"{'PASS' if r['ok'] else 'FAIL'}  {r['results']:36s} {r['gate']:22s} "
+              f"{r['value']:.4g} (threshold {r['threshold']:g})")
+    failed = [r for r in rows if not r["ok"]]
+    print(f"{len(rows) - len(failed)} passed, {len(failed)} failed")
+    return 1 if failed else 0

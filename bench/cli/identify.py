@@ -1,0 +1,95 @@
+"""``structbench identify``: identify parameters or modes from a campaign's traces.
+
+One run per (test group, repetition), or per repetition with ``--joint``;
+the runs go to ``CAMPAIGN_DIR/results/<method>[-<tag>].json``
+(docs/results-format.md). Method options left out take the method's defaults.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from structbench import api
+
+HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh) from a campaign's traces"
+
+
+def _default(method: str, option: str) -> Any:
+    return api.methods()[method].defaults[option]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    known = api.methods()
+    parser.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR", help="output folder of structbench run")
+    parser.add_argument("--method", required=True, choices=list(known),
+                        help="; ".join(f"{m.name}: {m.help}" for m in known.values()))
+    parser.add_argument("--model", metavar="NAME_OR_TOML",
+                        help="model with the unknown parameters (default: the traces' structure; for the "
+                             "perturbation method its '-postulated' variant when there is one)")
+    parser.add_argument("--group", action="append", metavar="NAME",
+                        help="only this test group (repeatable; default: every group)")
+    parser.add_argument("--test", action="append", metavar="PATTERN",
+                        help="only tests whose name matches (shell pattern, repeatable; e.g. exact-01)")
+    parser.add_argument("--joint", action="store_true", help="identify the selected groups of a repetition together")
+    parser.add_argument("--tag", help="result file results/<method>-<tag>.json")
+    parser.add_argument("--json", action="store_true", help="print the result document as JSON")
+    ls, pt, ry = "least-squares", "perturbation", "rayleigh"
+    group = parser.add_argument_group(ls)
+    group.add_argument("--samples", type=int, metavar="M",
+                       help=f"sample times per trace (default {_default(ls, 'samples')})")
+    group.add_argument("--interval", type=float, metavar="S",
+                       help=f"t_k = t_0 + interval k, s (default {_default(ls, 'interval')})")
+    group.add_argument("--integration", choices=known[ls].choices["integration"],
+                       help="displacements and velocities: measured when logged (auto), else integrated")
+    group.add_argument("--weighting", choices=known[ls].choices["weighting"],
+                       help="generalised least squares with the declared sensor noise (default) or plain")
+    group = parser.add_argument_group(pt)
+    group.add_argument("--max-iterations", type=int, metavar="N",
+                       help=f"default {_default(pt, 'max_iterations')}")
+    group.add_argument("--tol", type=float, help=f"converged when max |dp/p| < tol (default {_default(pt, 'tol')})")
+    group.add_argument("--natural-frequencies", action="store_true", default=None,
+                       help="add the natural frequencies found in the free vibration (not in the dissertation)")
+    group = parser.add_argument_group(ry)
+    group.add_argument("--variant", choices=known[ry].choices["variant"],
+                       help="displacement/velocity or velocity/acceleration correlations (default auto)")
+    group.add_argument("--window", choices=known[ry].choices["window"],
+                       help="taper of the time averages (default hann)")
+    group.add_argument("--admissible", choices=["cosine"], help="admissible functions with FE interpolation")
+    group.add_argument("--functions", type=int, metavar="K", help="number of admissible functions (default: sensors)")
+
+
+def options(args: argparse.Namespace) -> dict[str, Any]:
+    """The chosen method's options given on the command line."""
+    return {k: getattr(args, k) for k in api.methods()[args.method].defaults if getattr(args, k, None) is not None}
+
+
+def table(run: dict[str, Any]) -> list[str]:
+    """Human-readable lines of one run (a dict of docs/results-format.md)."""
+    tests = run["tests"]
+    head = (f"repetition {run['repetition']} ({', '.join(tests[:3])}{', ...' if len(tests) > 3 else ''}): "
+            f"{run['status']}" + (f" after {run['iterations']} iterations" if run.get("iterations") is not None
+                                  else ""))
+    lines = [head + (f" - {run['message']}" if run.get("message") else "")]
+    for p in run.get("parameters", []):
+        err = f" +- {p['std_error']:.3g}" if p.get("std_error") is not None else ""
+        start = f"   (from {p['initial']:.6g})" if p.get("initial") is not None else ""
+        lines.append(f"  {p['label']:16s} {p['value']:14.6g}{err:14s} {p['unit']}{start}")
+    for i, (w, lam) in enumerate(zip(run.get("omega", []), run.get("eigenvalues", [])), start=1):
+        lines.append(f"  mode {i:2d}  omega = {w:10.6f} rad/s   omega^2 = {lam:10.6f}")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group, tests=args.test,
+                            joint=args.joint, tag=args.tag, **options(args))
+    if args.json:
+        print(json.dumps(document, indent=1))
+        return 0
+    runs = document["runs"]
+    print(f"{args.method}: {len(runs)} run(s) of {document['model']} -> "
+          f"{api.results_file(args.campaign_dir, args.method, args.tag)}")
+    for i, result in enumerate(runs):
+        print("\n".join(table(result) if i == 0 else table(result)[:1]))
+    return 0

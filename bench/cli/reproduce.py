@@ -1,0 +1,40 @@
+"""``structbench reproduce``: the dissertation end to end, the main job."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from structbench import api
+
+HELP = "run every dissertation case through FMUs, harness, traces, identifiers and scoring; print and report"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("out/reproduce"),
+                        help="output folder (default out/reproduce); a second run resumes")
+    parser.add_argument("--repetitions", type=int, default=20,
+                        help="Monte Carlo repetitions of the noisy tests (default 20)")
+    parser.add_argument("--jobs", type=int, help="worker processes (default: one per CPU)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr)
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        rows = api.reproduce_table(summary)
+        width = max(len(r[0]) for r in rows)
+        print(f"{'case':{width}s} | dissertation | this run")
+        for case, published, ours in rows:
+            print(f"{case:{width}s} | {published} | {ours}")
+    _stderr(f"report: {args.out / 'report.md'} ({time.perf_counter() - start:.0f} s)")
+    return 0

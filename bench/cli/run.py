@@ -1,0 +1,80 @@
+"""``structbench run``: run a test campaign and log its traces.
+
+Exit status: 0 when every test is done, otherwise the number of failed tests
+capped at 100 (user errors found before any simulation exit with 2, like the
+other commands, with the message on stderr).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import TextIO
+
+from structbench import api
+
+HELP = "run a test campaign (TOML) on an FMU and log the sensors' traces (HDF5) into a folder"
+MAX_EXIT = 100
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", type=Path, metavar="CAMPAIGN.toml", help="campaign file")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help="output folder; run again to resume a killed campaign")
+    parser.add_argument("--jobs", type=int, default=None, metavar="N",
+                        help="local worker processes (default: one per CPU; 0: in this process)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the tests on an existing Dask cluster, e.g. tcp://host:8786")
+    parser.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
+                        help="where a built-in structure's FMU is built (default: DIR/fmus)")
+
+
+class ProgressBar:
+    """One status line on a terminal, redrawn after every finished task."""
+
+    def __init__(self, stream: TextIO, width: int = 30):
+        self.stream, self.width, self.start = stream, width, time.monotonic()
+
+    def __call__(self, status: api.CampaignStatus) -> None:
+        tests = status.tests.values()
+        total = sum(len(t.traces) for t in tests)
+        settled = sum(len(t.traces) if t.state == "failed" else len(t.present) for t in tests)
+        done, failed = status.count("done"), status.failed
+        filled = round(self.width * settled / max(total, 1))
+        elapsed = time.monotonic() - self.start
+        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done + failed}/{len(status.tests)} tests"
+                          f", {settled}/{total} traces{f', {failed} failed' if failed else ''}  {elapsed:6.1f} s ")
+        self.stream.flush()
+
+    def finish(self) -> None:
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+def summary(status: api.CampaignStatus, out: Path, seconds: float) -> str:
+    """The lines printed at the end of a run."""
+    total = len(status.tests)
+    traces = sum(len(t.present) for t in status.tests.values())
+    lines = [f"{status.campaign}: {status.count('done')}/{total} tests done "
+             f"({status.skipped} already complete), {status.failed} failed, {traces} trace files in "
+             f"{out / 'traces'} ({seconds:.1f} s)"]
+    lines += [f"  FAILED {t.name}: {t.error}" for t in status.tests.values() if t.state == "failed"]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.jobs is not None and args.jobs < 0:
+        raise api.UserError("must be 0 or more", field="--jobs")
+    if args.out.exists() and not args.out.is_dir():
+        raise api.UserError("is a file, expected a folder", field="--out")
+    campaign = api.load_campaign(args.campaign)
+    bar = ProgressBar(sys.stderr) if sys.stderr.isatty() else None
+    start = time.monotonic()
+    try:
+        status = api.run_campaign(campaign, args.out, args.jobs, args.scheduler, args.fmu_dir, bar)
+    finally:
+        if bar is not None:
+            bar.finish()
+    print(summary(status, args.out, time.monotonic() - start))
+    return min(status.failed, MAX_EXIT)

@@ -1,0 +1,84 @@
+"""Accuracy gates: thresholds of a campaign's ``[check]`` table against its scores.
+
+Keys (all optional): ``rms_max`` and ``rms_p90_max`` (normalized RMS parameter
+error, median and 90th percentile over runs), ``freq_error_pct_max`` (largest
+absolute median frequency error, %), ``mac_min`` (smallest median MAC),
+``improved_fraction_min`` (share of runs better than the starting model) and
+``modes`` (1-based modes the frequency and MAC gates look at; default all).
+Top-level keys apply to every results file; a sub-table ``[check.<results
+file stem>]`` (e.g. ``[check.rayleigh]``) overrides them for that file.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from structbench.models.errors import UserError
+
+from .scores import score_campaign
+
+GATES = {"rms_max", "rms_p90_max", "freq_error_pct_max", "mac_min", "improved_fraction_min", "modes"}
+
+
+def _modes(values: list[float], modes: list[int] | None) -> np.ndarray:
+    a = np.asarray(values, dtype=float)
+    return a if modes is None else a[[m - 1 for m in modes if m - 1 < a.size]]
+
+
+def _measures(summary: dict[str, Any], modes: list[int] | None) -> dict[str, float]:
+    out: dict[str, float] = {}
+    if "rms" in summary:
+        out["rms_max"] = summary["rms"]["median"]
+        out["rms_p90_max"] = summary["rms"]["p90"]
+    if "improved_fraction" in summary:
+        out["improved_fraction_min"] = summary["improved_fraction"]
+    if summary.get("freq_error_pct_median"):
+        out["freq_error_pct_max"] = float(np.abs(_modes(summary["freq_error_pct_median"], modes)).max())
+    if summary.get("mac_median"):
+        out["mac_min"] = float(_modes(summary["mac_median"], modes).min())
+    return out
+
+
+def gates_for(check: Mapping[str, Any], stem: str) -> dict[str, Any]:
+    """The thresholds that apply to one results file."""
+    flat = {k: v for k, v in check.items() if not isinstance(v, Mapping)}
+    own = check.get(stem, {})
+    gates = flat | dict(own)
+    unknown = sorted(set(gates) - GATES)
+    if unknown:
+        raise UserError(f"unknown gate(s) {unknown}; known: {sorted(GATES)}", field="check")
+    return gates
+
+
+def evaluate(check: Mapping[str, Any], scores: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per (results file, gate): measured value, threshold, pass."""
+    rows = []
+    for stem, score in scores.items():
+        gates = gates_for(check, stem)
+        measured = _measures(score["summary"], gates.get("modes"))
+        for gate, threshold in gates.items():
+            if gate == "modes" or gate not in measured:
+                continue
+            value = measured[gate]
+            ok = value >= threshold if gate.endswith("_min") else value <= threshold
+            rows.append({"results": stem, "gate": gate, "value": value, "threshold": threshold, "ok": bool(ok)})
+    return rows
+
+
+def check_campaign(folder: str | Path) -> list[dict[str, Any]]:
+    """Gate a campaign folder: its ``campaign.toml``'s ``[check]`` table
+    against the scores of its results (:func:`evaluate` rows)."""
+    folder = Path(folder)
+    copy = folder / "campaign.toml"
+    if not copy.is_file():
+        raise UserError(f"no campaign.toml in {folder}", field="CAMPAIGN_DIR")
+    check = tomllib.loads(copy.read_text()).get("check", {})
+    if not check:
+        raise UserError("the campaign file has no [check] table: nothing to gate on", field="check")
+    rows = evaluate(check, score_campaign(folder))
+    if not rows:
+        raise UserError("no [check] threshold applies to the results present", field="check")
+    return rows

@@ -1,0 +1,116 @@
+"""Scoring of a campaign folder: ``results/*.json`` against ``truth.json``.
+
+Per run: normalized RMS parameter error, per-parameter relative errors,
+natural-frequency errors (%) and the MAC of mode shapes; per results file a
+summary over the Monte Carlo runs (median and 10-90 % spread).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structbench.identifier.results import read_results
+from structbench.models.errors import UserError
+
+from .metrics import frequency_error_pct, mac, normalized_rms, relative_errors
+
+
+def load_truth(folder: Path) -> dict[str, Any]:
+    path = folder / "truth.json"
+    if not path.is_file():
+        raise UserError(f"no truth.json in {folder}: nothing to score against", field="CAMPAIGN_DIR")
+    return json.loads(path.read_text())
+
+
+def _truth_values(truth: dict[str, Any], labels: list[str]) -> np.ndarray:
+    table = {p["label"]: p["value"] for p in truth.get("parameters", [])}
+    missing = [label for label in labels if label not in table]
+    if missing:
+        raise UserError(f"parameters {missing[:5]} are not in truth.json", field="parameters")
+    return np.array([table[label] for label in labels], dtype=float)
+
+
+def _sensor_dof(channel: str) -> tuple[int, str]:
+    _, node, direction = channel.split("_", 2)
+    return int(node), direction
+
+
+def _mode_scores(run: dict[str, Any], truth: dict[str, Any]) -> dict[str, Any]:
+    omega = np.asarray(run.get("omega") or [], dtype=float)
+    true_omega = np.asarray(truth.get("omega") or [], dtype=float)
+    n = min(omega.size, true_omega.size)
+    out: dict[str, Any] = {"omega": omega[:n].tolist(), "omega_true": true_omega[:n].tolist(),
+                           "freq_error_pct": frequency_error_pct(omega[:n], true_omega[:n]).tolist()}
+    shapes = run.get("mode_shapes") or []
+    if shapes and truth.get("mode_shapes"):
+        rows = {tuple(d): i for i, d in enumerate(truth["sensor_dofs"])}
+        pick = [rows.get(_sensor_dof(c)) for c in run["sensors"]]
+        if None not in pick:
+            true_shapes = np.asarray(truth["mode_shapes"], dtype=float)[pick]
+            m = min(len(shapes), true_shapes.shape[1], n)
+            ident = np.asarray(shapes, dtype=float)[:m].T
+            out["mac"] = np.diag(mac(ident, true_shapes[:, :m])).tolist()
+    return out
+
+
+def score_run(run: dict[str, Any], truth: dict[str, Any]) -> dict[str, Any]:
+    """Scores of one run (a dict of docs/results-format.md)."""
+    out: dict[str, Any] = {"repetition": run["repetition"], "status": run["status"]}
+    params = run.get("parameters") or []
+    if params:
+        labels = [p["label"] for p in params]
+        true = _truth_values(truth, labels)
+        est = np.array([p["value"] for p in params], dtype=float)
+        out |= {"rms": normalized_rms(est, true), "labels": labels,
+                "errors": relative_errors(est, true).tolist()}
+        if run.get("history"):
+            out["rms_history"] = [normalized_rms(np.asarray(row, dtype=float), true) for row in run["history"]]
+            out["rms_initial"] = out["rms_history"][0]
+            out["iterations"] = run.get("iterations")
+    return out | _mode_scores(run, truth)
+
+
+def _spread(values: list[float]) -> dict[str, float]:
+    a = np.asarray(values, dtype=float)
+    return {"median": float(np.median(a)), "p10": float(np.percentile(a, 10)),
+            "p90": float(np.percentile(a, 90))}
+
+
+def summarize(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Medians and spreads over the runs of one results file."""
+    out: dict[str, Any] = {"runs": len(runs)}
+    if "rms" in runs[0]:
+        out["rms"] = _spread([r["rms"] for r in runs])
+        out["errors_median"] = dict(zip(runs[0]["labels"],
+                                        np.median([r["errors"] for r in runs], axis=0).tolist()))
+    if "rms_initial" in runs[0]:
+        out["rms_initial"] = _spread([r["rms_initial"] for r in runs])
+        out["improved_fraction"] = float(np.mean([r["rms"] < r["rms_initial"] for r in runs]))
+        out["iterations"] = [r["iterations"] for r in runs]
+    n = min(len(r["freq_error_pct"]) for r in runs)
+    if n:
+        out["omega_median"] = np.median([r["omega"][:n] for r in runs], axis=0).tolist()
+        out["omega_true"] = runs[0]["omega_true"][:n]
+        out["freq_error_pct_median"] = np.median([r["freq_error_pct"][:n] for r in runs], axis=0).tolist()
+    if all("mac" in r for r in runs):
+        k = min(len(r["mac"]) for r in runs)
+        out["mac_median"] = np.median([r["mac"][:k] for r in runs], axis=0).tolist()
+    return out
+
+
+def score_campaign(folder: str | Path) -> dict[str, Any]:
+    """Score every ``results/*.json`` of a campaign folder; keyed by file stem."""
+    folder = Path(folder)
+    truth = load_truth(folder)
+    files = sorted((folder / "results").glob("*.json"))
+    if not files:
+        raise UserError(f"no results in {folder / 'results'}: run structbench identify first", field="CAMPAIGN_DIR")
+    scores = {}
+    for path in files:
+        header, runs = read_results(path)
+        scored = [score_run(r.to_dict(), truth) for r in runs]
+        scores[path.stem] = {"method": header["method"], "summary": summarize(scored), "runs": scored}
+    return scores

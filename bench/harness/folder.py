@@ -1,0 +1,125 @@
+"""A campaign's output folder: ``campaign.toml`` (copy), ``traces/*.h5``,
+``truth.json`` and ``status.json``.
+
+A trace file that exists is complete (they are written atomically), so a
+campaign started again in the same folder skips what is there.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from structbench.models.errors import UserError
+
+from .campaign import Campaign
+from .fmu_setup import Bench
+from .trace_writer import write_atomic
+
+STATUS_FORMAT = "structbench-status"
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def write_json(path: Path, data: Any) -> None:
+    write_atomic(path, (json.dumps(data, indent=1) + "\n").encode())
+
+
+@dataclass
+class TestStatus:
+    """Progress of one test: its trace files, those present, an error if it failed."""
+
+    name: str
+    group: str
+    traces: list[str]
+    present: set[str] = field(default_factory=set)
+    error: str | None = None
+    omega: float | None = None
+
+    @property
+    def state(self) -> str:
+        """``done``, ``failed`` or ``pending``."""
+        if self.error is not None:
+            return "failed"
+        return "done" if self.present.issuperset(self.traces) else "pending"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"state": self.state, "group": self.group, "omega": self.omega, "traces": self.traces,
+                "present": sorted(self.present), "error": self.error}
+
+
+@dataclass
+class CampaignStatus:
+    """Progress of a campaign run (``status.json``)."""
+
+    campaign: str
+    structure: str
+    fmu: str
+    fmu_sha256: str
+    tests: dict[str, TestStatus]
+    started: str = field(default_factory=_now)
+    skipped: int = 0  # tests complete before this run
+
+    def count(self, state: str) -> int:
+        return sum(t.state == state for t in self.tests.values())
+
+    @property
+    def failed(self) -> int:
+        return self.count("failed")
+
+    def to_json(self) -> dict[str, Any]:
+        return {"format": STATUS_FORMAT, "campaign": self.campaign, "structure": self.structure,
+                "fmu": self.fmu, "fmu_sha256": self.fmu_sha256, "started": self.started, "updated": _now(),
+                "summary": {s: self.count(s) for s in ("done", "failed", "pending")} | {"skipped": self.skipped},
+                "tests": {name: t.to_json() for name, t in self.tests.items()}}
+
+
+class Folder:
+    """The output folder of one campaign."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        self.traces = self.root / "traces"
+
+    def prepare(self, campaign: Campaign) -> None:
+        """Create the folder, copy the campaign (refusing another campaign's
+        folder) and remove temporary files left by a killed run."""
+        copy = self.root / "campaign.toml"
+        if copy.exists() and copy.read_text() != campaign.text:
+            raise UserError(f"{self.root} holds the results of a different campaign.toml; "
+                            "use another --out folder", field="--out")
+        self.traces.mkdir(parents=True, exist_ok=True)
+        if not copy.exists():
+            write_atomic(copy, campaign.text.encode())
+        for tmp in self.traces.glob(".*.tmp"):
+            tmp.unlink(missing_ok=True)
+
+    def present(self) -> set[str]:
+        """Names of the trace files present (complete)."""
+        return {p.name for p in self.traces.glob("*.h5")}
+
+    def status(self, campaign: Campaign, bench: Bench) -> CampaignStatus:
+        """A fresh status with what is already present."""
+        present = self.present()
+        tests = {}
+        for t in campaign.tests:
+            names = [t.trace_name(r) for r in range(t.repetitions)]
+            omega = next((i.omega for i in t.excitation if i.kind == "harmonic"), None)
+            tests[t.name] = TestStatus(t.name, t.group, names, present & set(names), omega=omega)
+        status = CampaignStatus(campaign.name, campaign.structure, bench.fmu, bench.fmu_sha256, tests)
+        status.skipped = status.count("done")
+        return status
+
+    def write_status(self, status: CampaignStatus) -> None:
+        write_json(self.root / "status.json", status.to_json())
+
+    def write_truth(self, truth: dict[str, Any] | None) -> None:
+        if truth is not None:
+            write_json(self.root / "truth.json", truth)
+
+    def write_trace(self, name: str, image: bytes) -> None:
+        write_atomic(self.traces / name, image)

@@ -1,0 +1,170 @@
+"""Where a campaign's tasks run: local worker processes (warm pool, one FMU
+instance per worker, reset between tests) or an existing Dask cluster, and
+the worker-side entry point :func:`trace_task`.
+"""
+from __future__ import annotations
+
+import atexit
+import dataclasses
+import multiprocessing
+import multiprocessing.util
+import os
+import tempfile
+import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any
+
+from structbench.models.errors import UserError
+
+from .fmu_setup import Bench
+from .simulation import Outcome, Record, Rig, run_test
+from .test_entries import TestSpec
+
+# ---- worker side -----------------------------------------------------------
+_LOCAL = threading.local()  # this worker's FMU instance (per thread: Dask may run threads)
+_OPEN: list[Rig] = []       # every instance this process opened, closed at exit
+
+
+def _close_all() -> None:
+    while _OPEN:
+        _OPEN.pop().close()
+
+
+atexit.register(_close_all)
+multiprocessing.util.Finalize(None, _close_all, exitpriority=10)  # pool workers skip atexit
+
+
+def _fmu_file(bench: Bench, blob: bytes | None) -> str:
+    """The FMU on this machine: the campaign's path, or ``blob`` saved locally."""
+    if blob is None or Path(bench.fmu).is_file():
+        return bench.fmu
+    path = Path(tempfile.gettempdir()) / f"structbench-{bench.fmu_sha256[:16]}-{bench.fmu_name}"
+    if not path.is_file():
+        tmp = path.with_suffix(f".{os.getpid()}.part")
+        tmp.write_bytes(blob)
+        tmp.replace(path)
+    return str(path)
+
+
+def _rig(bench: Bench, blob: bytes | None) -> Rig:
+    """This worker's FMU instance for ``bench``, opened on first use and kept
+    (reset between tests) until a campaign with another set-up comes."""
+    key = (bench.fmu_sha256, tuple(sorted(bench.parameters.items())))
+    if getattr(_LOCAL, "key", None) != key:
+        old = getattr(_LOCAL, "rig", None)
+        if old is not None:
+            _OPEN.remove(old)
+            old.close()
+        _LOCAL.key, _LOCAL.rig = None, None
+        _LOCAL.rig = Rig(dataclasses.replace(bench, fmu=_fmu_file(bench, blob)))
+        _LOCAL.key = key
+        _OPEN.append(_LOCAL.rig)
+    return _LOCAL.rig
+
+
+def trace_task(bench: Bench, test: TestSpec, repetitions: list[int], record: Record | None, keep_record: bool,
+              out_dir: str | None, blob: bytes | None) -> Outcome:
+    """Worker entry point: traces of some repetitions of one test."""
+    try:
+        rig = _rig(bench, blob)
+    except Exception as err:
+        return Outcome(test.name, error=f"{type(err).__name__}: {err}")
+    return run_test(rig, bench, test, repetitions, record, keep_record, Path(out_dir) if out_dir else None)
+
+
+# ---- pools -----------------------------------------------------------------
+class LocalPool:
+    """``jobs`` worker processes (0: run in this process). Workers write
+    trace files themselves."""
+
+    writes_files = True
+
+    def __init__(self, jobs: int):
+        self.jobs = jobs
+        self._executor = self._start() if jobs > 0 else None
+
+    def _start(self) -> ProcessPoolExecutor:
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(["structbench.harness.simulation", "structbench.harness.fmu_session"])
+        return ProcessPoolExecutor(self.jobs, mp_context=context)
+
+    @property
+    def size(self) -> int:
+        return max(self.jobs, 1)
+
+    def submit(self, fn: Callable, *args: Any) -> Future:
+        if self._executor is None:
+            future: Future = Future()
+            future.set_result(fn(*args))
+            return future
+        try:
+            return self._executor.submit(fn, *args)
+        except BrokenProcessPool:  # a worker died (e.g. the FMU crashed it): start afresh
+            self._executor.shutdown(wait=False, cancel_futures=True)
+            self._executor = self._start()
+            return self._executor.submit(fn, *args)
+
+    def wait(self, futures: Iterable[Future]) -> set[Future]:
+        return wait(list(futures), return_when=FIRST_COMPLETED).done
+
+    def share(self, obj: Any) -> Any:
+        return obj
+
+    def share_fmu(self, fmu: Path) -> None:
+        """Workers read the FMU from this machine's file system: nothing to send."""
+        return None
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
+
+
+class DaskPool:
+    """The workers of an existing Dask distributed cluster. Trace images come
+    back to this process, which writes them; the FMU file is sent to the
+    workers once, so they need no shared file system (only structbench)."""
+
+    writes_files = False
+
+    def __init__(self, address: str, timeout: float = 30.0):
+        from distributed import Client
+
+        try:
+            self.client = Client(address, timeout=timeout)
+        except (OSError, TimeoutError) as err:
+            raise UserError(f"cannot connect to the Dask scheduler: {err}", field="--scheduler") from None
+
+    @property
+    def size(self) -> int:
+        return max(sum(w["nthreads"] for w in self.client.scheduler_info()["workers"].values()), 1)
+
+    def submit(self, fn: Callable, *args: Any) -> Any:
+        return self.client.submit(fn, *args, pure=False)
+
+    def wait(self, futures: Iterable[Any]) -> set[Any]:
+        from distributed import wait as dask_wait
+
+        return dask_wait(list(futures), return_when="FIRST_COMPLETED").done
+
+    def share(self, obj: Any) -> Any:
+        return self.client.scatter(obj, broadcast=True)
+
+    def share_fmu(self, fmu: Path) -> Any:
+        """The FMU file's bytes, sent once to every worker."""
+        return self.share(fmu.read_bytes())
+
+    def close(self) -> None:
+        self.client.close()
+
+
+Pool = LocalPool | DaskPool
+
+
+def make_pool(jobs: int | None, scheduler: str | None) -> Pool:
+    """A Dask pool for ``scheduler``, else ``jobs`` local workers (default: one per CPU)."""
+    if scheduler:
+        return DaskPool(scheduler)
+    return LocalPool((os.cpu_count() or 1) if jobs is None else jobs)

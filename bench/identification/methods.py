@@ -1,0 +1,76 @@
+"""The identification methods by name, with their options and defaults.
+
+A :class:`Method` wraps an identifier's ``identify(traces, model, **options)``
+(``traces``: the :class:`~structbench.identifier.traces.Trace` records of one
+run; ``model``: the model with the unknown parameters, or None) returning an
+:class:`~structbench.identifier.results.Identification`.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from structbench.identifier import least_squares, perturbation, rayleigh
+from structbench.identifier.errors import IdentificationError
+from structbench.identifier.results import Identification
+
+
+@dataclass(frozen=True)
+class Method:
+    """An identification method: ``call(traces, model, **options)``;
+    ``defaults`` lists every option it takes, ``choices`` the allowed values
+    of some; ``model``: "required",
+    "optional" or "none"; ``postulated``: start from the structure's
+    ``-postulated`` variant when there is one."""
+
+    name: str
+    call: Callable[..., Identification]
+    defaults: Mapping[str, Any]
+    help: str
+    choices: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
+    model: str = "required"
+    postulated: bool = False
+
+    def options(self, given: Mapping[str, Any]) -> dict[str, Any]:
+        """The defaults updated with ``given`` (None means default); an unknown
+        option is an error naming it."""
+        unknown = sorted(set(given) - set(self.defaults))
+        if unknown:
+            raise IdentificationError(f"unknown option(s) {unknown} for method {self.name}; it takes "
+                                      f"{', '.join(self.defaults) or 'none'}", field="options")
+        chosen = {k: (given[k] if given.get(k) is not None else v) for k, v in self.defaults.items()}
+        for key, allowed in self.choices.items():
+            if chosen[key] not in allowed:
+                raise IdentificationError(f"{chosen[key]!r} is not one of {', '.join(map(str, allowed))}",
+                                          field=key)
+        return chosen
+
+
+BUILTIN: dict[str, Method] = {m.name: m for m in (
+    Method("least-squares", least_squares.identify,
+           {"samples": 8, "interval": 0.5, "integration": "auto", "weighting": "noise"},
+           "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
+           {"integration": least_squares.INTEGRATIONS, "weighting": least_squares.WEIGHTINGS}),
+    Method("perturbation", perturbation.identify,
+           {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False},
+           "chapter 4: iterative frequency-domain perturbation from a postulated model", postulated=True),
+    Method("rayleigh", rayleigh.identify,
+           {"variant": "auto", "window": "hann", "admissible": None, "functions": None},
+           "chapter 5: modes from free response by a pseudo-Rayleigh quotient",
+           {"variant": rayleigh.VARIANTS, "window": rayleigh.WINDOWS, "admissible": (None, "cosine")},
+           model="optional"),
+)}
+
+
+def methods() -> dict[str, Method]:
+    """Every method known by name."""
+    return dict(BUILTIN)
+
+
+def method(name: str) -> Method:
+    """The method called ``name``; an unknown name is an error listing the known ones."""
+    known = methods()
+    if name not in known:
+        raise IdentificationError(f"unknown method {name!r}; known: {', '.join(known)}", field="--method")
+    return known[name]
