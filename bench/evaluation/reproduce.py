@@ -9,6 +9,7 @@ reproduce --json``.
 from __future__ import annotations
 
 import dataclasses
+from importlib import resources
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -26,7 +27,7 @@ from structbench.identification.runs import identify_folder
 from .metrics import frequency_error_pct
 from .scores import score_campaign
 
-CAMPAIGNS = Path(__file__).resolve().parents[2] / "campaigns"
+CAMPAIGNS = Path(str(resources.files("structbench.campaigns")))
 NAMES = ("ch3", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membrane")
 
 # The dissertation's figures (shared/reference/dissertation-cases.md).
@@ -105,7 +106,7 @@ def run_all(out: Path, repetitions: int | None, jobs: int | None,
     """Run every campaign and identification; returns scores per campaign."""
     missing = [n for n in NAMES if not (CAMPAIGNS / f"{n}.toml").is_file()]
     if missing:
-        raise UserError(f"campaign files {missing} not found in {CAMPAIGNS} (run from a structbench checkout)",
+        raise UserError(f"campaign files {missing} not found in {CAMPAIGNS} (a broken installation)",
                         field="campaigns")
     fmu_dir = out / "fmus"
     scores = {}

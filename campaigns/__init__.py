@@ -1,0 +1,1 @@
+"""The dissertation's experiments as campaign files (TOML data; imports nothing)."""
