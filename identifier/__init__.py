@@ -1,13 +1,12 @@
 """Identification methods that read trace files and a model description.
+Imports only structbench.models: never the harness, the FMU layer or truth.json.
 
-Nothing here imports the harness's simulation code or reads truth.json.
-
-- :mod:`identifier.traces`: the trace reader (``read_trace``, ``read_traces``)
-- :mod:`identifier.least_squares`: chapter 3, time-domain least squares
-- :mod:`identifier.perturbation`: chapter 4, frequency-domain perturbation with pseudo-parameters
-- :mod:`identifier.rayleigh`: chapter 5, pseudo-Rayleigh quotient
-- :mod:`identifier.results`: the result records and their JSON file
-- helpers: :mod:`identifier.integrate` (accelerations to motion), :mod:`identifier.harmonic`
+- :mod:`structbench.identifier.traces`: the trace reader (``read_trace``, ``read_traces``)
+- :mod:`structbench.identifier.least_squares`: chapter 3, time-domain least squares
+- :mod:`structbench.identifier.perturbation`: chapter 4, frequency-domain perturbation with pseudo-parameters
+- :mod:`structbench.identifier.rayleigh`: chapter 5, pseudo-Rayleigh quotient
+- :mod:`structbench.identifier.results`: the result records and their JSON file
+- helpers: :mod:`structbench.identifier.integrate` (accelerations to motion), :mod:`structbench.identifier.harmonic`
   (sinusoid fits, free-vibration frequencies)
 """
 from .errors import IdentificationError
