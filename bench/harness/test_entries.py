@@ -21,7 +21,9 @@ from .toml_table import Table
 if TYPE_CHECKING:
     from .campaign import CampaignReader
 
-TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise")
+TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise",
+             "timeout")
+DEFAULT_TIMEOUT = 600.0  # s, wall-clock limit of one task of a test (local workers)
 EXCITATION_KEYS = {
     "harmonic": ("kind", "node", "dir", "amplitude", "omega", "phase", "ramp", "settle"),
     "stepped-sine": ("kind", "node", "dir", "amplitude", "omegas", "phase", "ramp", "settle", "window"),
@@ -49,6 +51,7 @@ class TestSpec:
     noise: NoiseSpec
     repetitions: int
     base_seed: int
+    timeout: float = DEFAULT_TIMEOUT
 
     @property
     def n_samples(self) -> int:
@@ -92,6 +95,7 @@ class TestReader:
             raise table.error("dt", f"sampling interval {self.dt} s is not a whole number of communication "
                                     f"steps ({self.step} s)")
         self.repetitions = table.integer("repetitions", 1, low=1)
+        self.timeout = table.number("timeout", DEFAULT_TIMEOUT, positive=True)
         noise = table.table("noise")
         self.noise = self._noise(noise, noise.integer("seed", seed, low=0))
 
@@ -283,6 +287,6 @@ class TestReader:
             if c.quantity != "force":
                 self.reader.want(key, self.mapping, c.quantity, c.node, c.direction)
         return TestSpec(name, self.name, self.dt, self.step, duration, items, tuple(channels), self.noise,
-                        self.repetitions, self.noise.seed)
+                        self.repetitions, self.noise.seed, self.timeout)
 
 
