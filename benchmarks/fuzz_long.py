@@ -4,7 +4,8 @@ cases per format (default 1,000), counting cases, outcomes and tracebacks.
     python benchmarks/fuzz_long.py [--examples N] [--formats campaign,model,...] [--seed S]
 
 A traceback is any exception escaping ``structbench.cli.main``; a violated
-property (exit code, several error lines, leftovers) is counted apart.
+property (exit code, several error lines, leftovers) and a hang (a case over
+HANG_SECONDS) are counted apart.
 Prints one line per format and the distinct places tracebacks came from;
 exits 1 if there was any traceback or violation.
 """
@@ -13,8 +14,10 @@ from __future__ import annotations
 import argparse
 import collections
 import json
+import signal
 import sys
 import tempfile
+import time
 import traceback
 from pathlib import Path
 
@@ -29,18 +32,35 @@ FORMATS = ("campaign", "model", "trace", "results", "mapping")
 JSON_TARGETS = ["results/least-squares.json", "results/rayleigh.json", "truth.json"]
 
 
+HANG_SECONDS = 120  # a case running longer counts as a hang
+
+
+class Hang(BaseException):
+    """Raised by SIGALRM in a case that runs too long."""
+
+
+def _alarm(signum: int, frame: object) -> None:
+    raise Hang
+
+
 class Tally:
-    """Cases, exit codes, tracebacks (with the place they came from) and property violations."""
+    """Cases, exit codes, tracebacks (with the place they came from), property
+    violations, hangs and the slowest case (s)."""
 
     def __init__(self) -> None:
-        self.cases, self.tracebacks, self.violations = 0, 0, 0
+        self.cases, self.tracebacks, self.violations, self.hangs, self.slowest = 0, 0, 0, 0, 0.0
         self.codes: collections.Counter[int] = collections.Counter()
         self.places: collections.Counter[str] = collections.Counter()
 
     def run(self, case, *args) -> None:
         self.cases += 1
+        signal.alarm(HANG_SECONDS)
+        start = time.monotonic()
         try:
             self.codes[case(*args)] += 1
+        except Hang:
+            self.hangs += 1
+            self.places[f"hang (> {HANG_SECONDS} s): {str(args)[:200]}"] += 1
         except AssertionError as err:
             self.violations += 1
             self.places[f"property: {str(err)[:160]}"] += 1
@@ -48,6 +68,9 @@ class Tally:
             self.tracebacks += 1
             frame = traceback.extract_tb(err.__traceback__)[-1]
             self.places[f"{type(err).__name__} at {Path(frame.filename).name}:{frame.lineno}"] += 1
+        finally:
+            signal.alarm(0)
+            self.slowest = max(self.slowest, time.monotonic() - start)
 
 
 def strategy(fmt: str, seeds: dict[str, Path]):
@@ -98,14 +121,17 @@ def main() -> int:
         for path in seeds.values():
             path.mkdir()
         cases.trace_seed(seeds["trace"]), cases.score_seed(seeds["score"]), cases.external_seed(seeds["external"])
-        print(f"{'format':10s} {'cases':>6s} {'tracebacks':>10s} {'violations':>10s}  exit codes")
+        signal.signal(signal.SIGALRM, _alarm)
+        print(f"{'format':10s} {'cases':>6s} {'tracebacks':>10s} {'violations':>10s} {'hangs':>5s} {'slowest':>8s}"
+              "  exit codes")
         for fmt in args.formats.split(","):
             tally = fuzz(fmt, args.examples, seeds, args.seed)
             codes = ", ".join(f"{c}: {n}" for c, n in sorted(tally.codes.items()))
-            print(f"{fmt:10s} {tally.cases:6d} {tally.tracebacks:10d} {tally.violations:10d}  {codes}", flush=True)
+            print(f"{fmt:10s} {tally.cases:6d} {tally.tracebacks:10d} {tally.violations:10d} {tally.hangs:5d} "
+                  f"{tally.slowest:7.1f}s  {codes}", flush=True)
             for place, n in tally.places.most_common(15):
                 print(f"    {n:5d}  {place}")
-            bad += tally.tracebacks + tally.violations
+            bad += tally.tracebacks + tally.violations + tally.hangs
     return 1 if bad else 0
 
 

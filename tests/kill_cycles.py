@@ -60,10 +60,12 @@ def command(campaign: Path, out: Path) -> list[str]:
 
 @dataclass
 class Bench:
-    """The campaign, its uninterrupted reference run and how long that took."""
+    """The campaign, its uninterrupted reference run, when that run wrote
+    its first trace and when it ended (s after its start)."""
 
     campaign: Path
     reference: Path
+    first: float
     seconds: float
 
 
@@ -71,9 +73,17 @@ def prepare(root: Path) -> Bench:
     fmu = build_faulty(root)
     campaign = root / "kill.toml"
     campaign.write_text(campaign_text(fmu))
+    reference = root / "reference"
     start = time.monotonic()
-    subprocess.run(command(campaign, root / "reference"), check=True, stdout=subprocess.DEVNULL)
-    return Bench(campaign, root / "reference", time.monotonic() - start)
+    process = subprocess.Popen(command(campaign, reference), stdout=subprocess.DEVNULL)
+    first = None
+    while process.poll() is None:
+        if first is None and (reference / "traces").is_dir() and any((reference / "traces").glob("*.h5")):
+            first = time.monotonic() - start
+        time.sleep(0.01)
+    assert process.returncode == 0
+    seconds = time.monotonic() - start
+    return Bench(campaign, reference, first if first is not None else 0.0, seconds)
 
 
 def _booked(out: Path) -> list[str]:
@@ -98,7 +108,7 @@ class Cycle:
 def kill_cycle(bench: Bench, out: Path, rng: np.random.Generator, damage: bool) -> Cycle:
     """Start the campaign into ``out``, kill -9 it (and its workers) at a random
     moment, maybe damage a booked trace, resume and compare with the reference."""
-    delay = float(rng.uniform(0.05, 1.0) * bench.seconds)
+    delay = float(rng.uniform(bench.first, bench.seconds))  # while traces are being written
     process = subprocess.Popen(command(bench.campaign, out), start_new_session=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(delay)

@@ -117,7 +117,7 @@ class Folder:
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             return {}
 
-    def present(self) -> dict[str, str]:
+    def keep_verified(self) -> dict[str, str]:
         """The trace files present whose checksum matches ``status.json``, with
         their checksums; the others are deleted (to be simulated again)."""
         recorded, good = self.recorded(), {}
@@ -130,7 +130,7 @@ class Folder:
 
     def status(self, campaign: Campaign, bench: Bench) -> CampaignStatus:
         """A fresh status with what is already present (checksums verified)."""
-        present = self.present()
+        present = self.keep_verified()
         tests = {}
         for t in campaign.tests:
             names = [t.trace_name(r) for r in range(t.repetitions)]

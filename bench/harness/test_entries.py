@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise",
              "timeout")
 MAX_STEPS = 1e8  # communication steps of one test (memory: 800 MB per signal)
+MAX_REPETITIONS = 100_000
 DEFAULT_TIMEOUT = 600.0  # s, wall-clock limit of one task of a test (local workers)
 EXCITATION_KEYS = {
     "harmonic": ("kind", "node", "dir", "amplitude", "omega", "phase", "ramp", "settle"),
@@ -99,6 +100,8 @@ class TestReader:
             raise table.error("dt", f"sampling interval {self.dt} s is not a whole number of communication "
                                     f"steps ({self.step} s)")
         self.repetitions = table.integer("repetitions", 1, low=1)
+        if self.repetitions > MAX_REPETITIONS:
+            raise table.error("repetitions", f"at most {MAX_REPETITIONS}, got {self.repetitions}")
         self.timeout = table.number("timeout", DEFAULT_TIMEOUT, positive=True)
         noise = table.table("noise")
         self.noise = self._noise(noise, noise.integer("seed", seed, low=0))
