@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from .json_checks import load_json
+from .result_checks import check_results
+
 FORMAT = "structbench-result"
 FORMAT_VERSION = 1
 
@@ -120,9 +123,9 @@ def write_results(path: str | Path, document: dict[str, Any]) -> Path:
 
 
 def read_results(path: str | Path) -> tuple[dict[str, Any], list[Identification]]:
-    """A result file: its header (everything but ``runs``) and the runs."""
-    data = json.loads(Path(path).read_text())
-    if data.get("format") != FORMAT:
-        raise ValueError(f"{path}: not a {FORMAT} file")
+    """A result file: its header (everything but ``runs``) and the runs;
+    a :class:`~.json_checks.JsonError` naming the key if it is not valid."""
+    data = load_json(Path(path))
+    check_results(Path(path), data, FORMAT)
     runs = [Identification.from_dict(r) for r in data.pop("runs")]
     return data, runs

@@ -122,7 +122,7 @@ class Trace:
 
 def _decode(value: Any) -> Any:
     if isinstance(value, bytes):
-        return value.decode()
+        return value.decode("utf-8", "replace")
     if isinstance(value, np.generic):
         return value.item()
     return value
@@ -132,59 +132,119 @@ def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
     return {k: _decode(v) for k, v in obj.attrs.items()}
 
 
-def _channel(ds: h5py.Dataset, where: str, n: int) -> Channel:
+def _number(value: Any, where: str, what: str, kind: type = float) -> Any:
+    """``value`` as a finite float (or int), else an error naming ``what``."""
+    try:
+        number = kind(value)
+        if isinstance(value, (bool, str, bytes)) or not np.isfinite(number) or number != value:
+            raise ValueError
+    except (TypeError, ValueError, OverflowError):
+        raise IdentificationError(f"{where}: {what} is {value!r}, expected a finite "
+                                  f"{'integer' if kind is int else 'number'}", field=what) from None
+    return number
+
+
+def _samples(ds: Any, where: str, name: str) -> np.ndarray:
+    """A real, finite 1-D dataset as floats."""
+    if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "iuf" or ds.ndim != 1:
+        kind = f"a dataset of {ds.dtype} with shape {ds.shape}" if isinstance(ds, h5py.Dataset) else "a group"
+        raise IdentificationError(f"{where}: {name} is {kind}, expected real numbers (1-D)", field=name)
+    data = np.asarray(ds[()], dtype=float)
+    bad = np.flatnonzero(~np.isfinite(data))
+    if bad.size:
+        raise IdentificationError(f"{where}: {name} is {data[bad[0]]} at sample {bad[0]} "
+                                  f"({bad.size} non-finite samples)", field=name)
+    return data
+
+
+def _channel(ds: Any, where: str, n: int, sensor: bool) -> Channel:
+    name = ds.name
+    data = _samples(ds, where, name)
     attrs = _attrs(ds)
     for key in CHANNEL_ATTRS:
         if key not in attrs:
-            raise IdentificationError(f"{where}: dataset {ds.name} has no attribute {key!r}", field=key)
+            raise IdentificationError(f"{where}: dataset {name} has no attribute {key!r}", field=key)
     if attrs["quantity"] not in QUANTITIES:
-        raise IdentificationError(f"{where}: {ds.name} has quantity {attrs['quantity']!r}; "
+        raise IdentificationError(f"{where}: {name} has quantity {attrs['quantity']!r}; "
                                   f"known: {', '.join(QUANTITIES)}", field="quantity")
-    data = np.asarray(ds[()], dtype=float)
     if data.shape != (n,):
-        raise IdentificationError(f"{where}: {ds.name} has shape {data.shape}, /time has ({n},)",
-                                  field=ds.name)
-    given = np.asarray(attrs.get("location", []), dtype=float).reshape(-1)[:3]
+        raise IdentificationError(f"{where}: {name} has shape {data.shape}, /time has ({n},)", field=name)
+    if sensor and np.ptp(data) == 0:
+        raise IdentificationError(f"{where}: {name} is constant ({data[0]}): a dead sensor", field=name)
+    try:
+        given = np.asarray(attrs.get("location", []), dtype=float).reshape(-1)[:3]
+    except (TypeError, ValueError):
+        raise IdentificationError(f"{where}: {name} has location {attrs['location']!r}, expected 3 numbers",
+                                  field="location") from None
     location = np.zeros(3) if given.size else np.full(3, np.nan)
     location[:given.size] = given
-    return Channel(name=ds.name.rsplit("/", 1)[-1], data=data, quantity=attrs["quantity"],
-                   unit=str(attrs["unit"]), node=int(attrs["node"]), direction=str(attrs["direction"]),
-                   location=location,
-                   noise_ratio=float(attrs.get("noise_ratio", 0.0)),
-                   noise_mode=str(attrs.get("noise_mode", "rms")))
+    mode = attrs.get("noise_mode", "rms")
+    if mode not in ("rms", "proportional"):
+        raise IdentificationError(f"{where}: {name} has noise_mode {mode!r}, expected rms or proportional",
+                                  field="noise_mode")
+    return Channel(name=name.rsplit("/", 1)[-1], data=data, quantity=attrs["quantity"],
+                   unit=str(attrs["unit"]), node=_number(attrs["node"], where, f"{name} node", int),
+                   direction=str(attrs["direction"]), location=location,
+                   noise_ratio=_number(attrs.get("noise_ratio", 0.0), where, f"{name} noise_ratio"),
+                   noise_mode=mode)
+
+
+def _group(f: h5py.File, name: str, where: str, sensor: bool, n: int) -> dict[str, Channel]:
+    group = f[name]
+    if not isinstance(group, h5py.Group):
+        raise IdentificationError(f"{where}: /{name} is a dataset, expected a group", field=name)
+    return {k: _channel(ds, where, n, sensor) for k, ds in group.items()}
+
+
+def _excitation_attrs(f: h5py.File, where: str) -> dict[str, Any]:
+    attrs = _attrs(f["excitation"])
+    if isinstance(attrs.get("spec"), str):
+        try:
+            attrs["spec"] = json.loads(attrs["spec"])
+        except ValueError:
+            raise IdentificationError(f"{where}: /excitation attribute 'spec' is not JSON", field="spec") from None
+    if "omega" in attrs:
+        attrs["omega"] = _number(attrs["omega"], where, "/excitation omega")
+    return attrs
+
+
+def _read(f: h5py.File, path: Path) -> Trace:
+    where = path.name
+    attrs = _attrs(f)
+    if not isinstance(attrs.get("format"), str) or attrs["format"] != FORMAT:
+        raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
+                                  f"expected {FORMAT!r}", field="format")
+    for name in ("time", "channels"):
+        if name not in f:
+            raise IdentificationError(f"{where}: missing dataset or group /{name}", field=name)
+    time = _samples(f["time"], where, "/time")
+    if time.size < 2 or np.any(np.diff(time) <= 0):
+        raise IdentificationError(f"{where}: /time must hold at least two increasing samples", field="time")
+    dt = _number(attrs.get("dt", time[1] - time[0]), where, "dt")
+    step = _number(attrs.get("step", dt), where, "step")
+    if dt <= 0 or step <= 0:
+        raise IdentificationError(f"{where}: dt and step must be positive, got {dt} and {step}", field="dt")
+    attrs["repetition"] = _number(attrs.get("repetition", 0), where, "repetition", int)
+    channels = _group(f, "channels", where, True, time.size)
+    excitation, excitation_attrs = {}, {}
+    if "excitation" in f:
+        excitation = _group(f, "excitation", where, False, time.size)
+        excitation_attrs = _excitation_attrs(f, where)
+    noise_attrs = _attrs(f["noise"]) if "noise" in f else {}
+    return Trace(path=path, time=time, dt=dt, step=step, channels=channels, excitation=excitation,
+                 attrs=attrs, excitation_attrs=excitation_attrs, noise_attrs=noise_attrs)
 
 
 def read_trace(path: str | Path) -> Trace:
-    """Read one trace file; raises :class:`IdentificationError` naming what is missing."""
+    """Read one trace file; raises :class:`IdentificationError` naming the
+    file and what is missing or unusable: non-finite samples, a constant
+    (dead) sensor channel, wrong types or shapes, a damaged file."""
     path = Path(path)
-    where = path.name
     try:
-        f = h5py.File(path, "r")
-    except OSError as err:
+        with h5py.File(path, "r") as f:
+            return _read(f, path)
+    except (OSError, KeyError, RuntimeError) as err:  # h5py's errors on damaged files
         raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
-    with f:
-        attrs = _attrs(f)
-        if attrs.get("format") != FORMAT:
-            raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
-                                      f"expected {FORMAT!r}", field="format")
-        for name in ("time", "channels"):
-            if name not in f:
-                raise IdentificationError(f"{where}: missing dataset or group /{name}", field=name)
-        time = np.asarray(f["time"][()], dtype=float)
-        if time.ndim != 1 or time.size < 2:
-            raise IdentificationError(f"{where}: /time must hold at least two samples", field="time")
-        dt = float(attrs.get("dt", time[1] - time[0]))
-        channels = {k: _channel(ds, where, time.size) for k, ds in f["channels"].items()}
-        excitation, excitation_attrs = {}, {}
-        if "excitation" in f:
-            excitation = {k: _channel(ds, where, time.size) for k, ds in f["excitation"].items()}
-            excitation_attrs = _attrs(f["excitation"])
-            if isinstance(excitation_attrs.get("spec"), str):
-                excitation_attrs["spec"] = json.loads(excitation_attrs["spec"])
-        noise_attrs = _attrs(f["noise"]) if "noise" in f else {}
-    return Trace(path=path, time=time, dt=dt, step=float(attrs.get("step", dt)), channels=channels,
-                 excitation=excitation, attrs=attrs, excitation_attrs=excitation_attrs,
-                 noise_attrs=noise_attrs)
 
 
 def trace_files(source: str | Path | list[str | Path]) -> list[Path]:

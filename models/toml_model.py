@@ -20,6 +20,8 @@ SUPPORT_KEYS = {"node", "type", "fix"}
 
 
 def _check_keys(table: dict[str, Any], allowed: set[str], where: str) -> None:
+    if not isinstance(table, dict):
+        raise ModelError(f"expected a table, got {table!r:.60}", field=where or "model")
     extra = sorted(set(table) - allowed)
     if extra:
         raise ModelError(f"unknown key(s) {extra}; allowed: {sorted(allowed)}", field=f"{where}.{extra[0]}" if where else extra[0])
@@ -45,8 +47,12 @@ def _node(table: dict[str, Any], i: int) -> tuple[int, np.ndarray]:
 
 def _element(table: dict[str, Any], i: int) -> Element:
     where = f"elements[{i}]"
+    if not isinstance(table, dict):
+        raise ModelError(f"expected a table, got {table!r:.60}", field=where)
     if "type" not in table:
         raise ModelError("missing element type", field=f"{where}.type")
+    if not isinstance(table["type"], str):
+        raise ModelError(f"expected a string, got {table['type']!r:.60}", field=f"{where}.type")
     try:
         etype = element_type(table["type"])
     except ModelError as err:
@@ -58,6 +64,8 @@ def _element(table: dict[str, Any], i: int) -> Element:
         raise ModelError(f"expected a list of node ids, got {nodes!r}", field=f"{where}.nodes")
     values = {name: _number(table[name], f"{where}.{name}") for name in names if name in table}
     direction = table.get("dir")
+    if direction is not None and not isinstance(direction, str):
+        raise ModelError(f"expected a direction name, got {direction!r:.60}", field=f"{where}.dir")
     if etype.directions is not None and direction is not None:
         raise ModelError(f"{etype.name} has fixed directions {etype.directions}", field=f"{where}.dir")
     return Element(etype, tuple(nodes), values, direction)
@@ -68,10 +76,15 @@ def _support(table: dict[str, Any], i: int) -> tuple[int, str | tuple[str, ...]]
     _check_keys(table, SUPPORT_KEYS, where)
     if "node" not in table:
         raise ModelError("missing node", field=f"{where}.node")
+    if isinstance(table["node"], bool) or not isinstance(table["node"], int):
+        raise ModelError(f"expected a node id, got {table['node']!r:.60}", field=f"{where}.node")
     if "fix" in table:
-        return table["node"], tuple(table["fix"])
+        fix = table["fix"]
+        if not isinstance(fix, list) or not all(isinstance(d, str) for d in fix):
+            raise ModelError(f"expected a list of directions, got {fix!r:.60}", field=f"{where}.fix")
+        return table["node"], tuple(fix)
     kind = table.get("type", "clamped")
-    if kind not in SUPPORTS:
+    if not isinstance(kind, str) or kind not in SUPPORTS:
         raise ModelError(f"unknown support {kind!r}; known: {', '.join(SUPPORTS)}", field=f"{where}.type")
     return table["node"], kind
 
@@ -79,6 +92,13 @@ def _support(table: dict[str, Any], i: int) -> tuple[int, str | tuple[str, ...]]
 def structure_from_dict(data: dict[str, Any], default_name: str = "model") -> Structure:
     """Build a :class:`Structure` from parsed TOML data (1-based indices in errors)."""
     _check_keys(data, TOP_KEYS, "")
+    for key in ("nodes", "elements", "supports", "unknown"):
+        if not isinstance(data.get(key, []), list):
+            raise ModelError(f"expected a list, got {data[key]!r:.60}", field=key)
+    if not all(isinstance(kind, str) for kind in data.get("unknown", [])):
+        raise ModelError("expected a list of parameter kinds", field="unknown")
+    if not isinstance(data.get("name", default_name), str):
+        raise ModelError(f"expected a string, got {data['name']!r:.60}", field="name")
     if not data.get("nodes"):
         raise ModelError("a model needs at least one [[nodes]] entry", field="nodes")
     if not data.get("elements"):
@@ -94,10 +114,22 @@ def structure_from_dict(data: dict[str, Any], default_name: str = "model") -> St
     rayleigh = data.get("rayleigh", [0.0, 0.0])
     if not isinstance(rayleigh, list) or len(rayleigh) != 2:
         raise ModelError("expected [alpha (1/s), beta (s)]", field="rayleigh")
-    return Structure(name=data.get("name", default_name), nodes=nodes, elements=elements,
-                     supports=supports,
-                     rayleigh=(_number(rayleigh[0], "rayleigh[0]"), _number(rayleigh[1], "rayleigh[1]")),
-                     unknown=tuple(data.get("unknown", ("mass", "stiffness"))))
+    structure = Structure(name=data.get("name", default_name), nodes=nodes, elements=elements,
+                          supports=supports,
+                          rayleigh=(_number(rayleigh[0], "rayleigh[0]"), _number(rayleigh[1], "rayleigh[1]")),
+                          unknown=tuple(data.get("unknown", ("mass", "stiffness"))))
+    _check_mass(structure)
+    return structure
+
+
+def _check_mass(structure: Structure) -> None:
+    """Every free DOF needs mass (else the mass matrix is singular)."""
+    diagonal = structure.mass().diagonal()
+    massless = [structure.dofs[j] for j in np.flatnonzero(~(diagonal > 0))]
+    if massless:
+        node, direction = massless[0]
+        raise ModelError(f"free DOF ({node}, {direction!r}) has no mass ({len(massless)} massless DOF in all); "
+                         "add a mass element or a support", field="elements")
 
 
 def load_structure(path: str | Path) -> Structure:

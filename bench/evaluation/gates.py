@@ -50,6 +50,12 @@ def gates_for(check: Mapping[str, Any], stem: str) -> dict[str, Any]:
     unknown = sorted(set(gates) - GATES)
     if unknown:
         raise UserError(f"unknown gate(s) {unknown}; known: {sorted(GATES)}", field="check")
+    for gate, value in gates.items():
+        if gate == "modes":
+            if not isinstance(value, list) or not all(type(m) is int and m >= 1 for m in value):
+                raise UserError(f"expected a list of mode numbers >= 1, got {value!r:.60}", field="check.modes")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise UserError(f"expected a number, got {value!r:.60}", field=f"check.{gate}")
     return gates
 
 
@@ -75,7 +81,12 @@ def check_campaign(folder: str | Path) -> list[dict[str, Any]]:
     copy = folder / "campaign.toml"
     if not copy.is_file():
         raise UserError(f"no campaign.toml in {folder}", field="CAMPAIGN_DIR")
-    check = tomllib.loads(copy.read_text()).get("check", {})
+    try:
+        check = tomllib.loads(copy.read_text()).get("check", {})
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        raise UserError(f"not a readable campaign file: {err}", field=str(copy)) from None
+    if not isinstance(check, dict):
+        raise UserError(f"expected a table, got {check!r:.60}", field="check")
     if not check:
         raise UserError("the campaign file has no [check] table: nothing to gate on", field="check")
     rows = evaluate(check, score_campaign(folder))

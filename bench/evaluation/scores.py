@@ -6,7 +6,6 @@ summary over the Monte Carlo runs (median and 10-90 % spread).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -16,13 +15,14 @@ from structbench.identifier.results import read_results
 from structbench.models.errors import UserError
 
 from .metrics import frequency_error_pct, mac, normalized_rms, relative_errors
+from .truth_checks import read_truth
 
 
 def load_truth(folder: Path) -> dict[str, Any]:
     path = folder / "truth.json"
     if not path.is_file():
         raise UserError(f"no truth.json in {folder}: nothing to score against", field="CAMPAIGN_DIR")
-    return json.loads(path.read_text())
+    return read_truth(path)
 
 
 def _truth_values(truth: dict[str, Any], labels: list[str]) -> np.ndarray:
@@ -111,6 +111,8 @@ def score_campaign(folder: str | Path) -> dict[str, Any]:
     scores = {}
     for path in files:
         header, runs = read_results(path)
+        if not runs:
+            raise UserError("holds no runs: nothing to score", field=path.name)
         scored = [score_run(r.to_dict(), truth) for r in runs]
         scores[path.stem] = {"method": header["method"], "summary": summarize(scored), "runs": scored}
     return scores

@@ -70,14 +70,18 @@ class Campaign:
     def check_variables(self, variables: Mapping[str, str], fmu_name: str) -> None:
         """Every mapped variable must exist in the FMU (``variables``: name ->
         causality); otherwise fail naming the key and the closest names."""
+        claimed: dict[str, str] = {}  # variable -> the role that first mapped it
         for key, role, name in self.variables:
             if name not in variables:
                 near = closest(name, variables)
                 hint = f"; closest: {', '.join(near)}" if near else ""
                 raise self.error(key, f"{role}: no variable {name!r} in {fmu_name}{hint}")
-            if role.startswith("force") and variables[name] != "input":
-                raise self.error(key, f"{role}: {name!r} in {fmu_name} is not an input "
-                                      f"(causality {variables[name]})")
+            if role.startswith("force") != (variables[name] == "input"):
+                expected = "an input" if role.startswith("force") else "not an input"
+                raise self.error(key, f"{role}: {name!r} in {fmu_name} has causality {variables[name]}, "
+                                      f"expected {expected}")
+            if claimed.setdefault(name, role) != role:
+                raise self.error(key, f"{role}: {name!r} is also mapped to {claimed[name]}")
 
 
 
@@ -128,7 +132,9 @@ class CampaignReader:
                 pattern = table.string(key)
                 try:
                     bad = pattern_fields(pattern) - PLACEHOLDERS
-                except ValueError as err:
+                    if not bad:
+                        pattern.format(node=1, dir="z")  # format specs such as {node:q}
+                except (ValueError, TypeError) as err:
                     raise table.error(key, f"bad pattern {pattern!r}: {err}") from None
                 if bad:
                     raise table.error(key, f"unknown placeholder(s) {sorted(bad)}; use {{node}} and {{dir}}")

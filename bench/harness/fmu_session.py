@@ -93,19 +93,23 @@ class FmuSession:
         self._sys_path = list(sys.path)
         self._unzipdir: str | None = str(extract(str(self.path)))
         try:
-            if md.fmiVersion == "2.0" and md.coSimulation is not None:
-                self._backend: Backend = Fmi2CoSimulation(self)
-            elif md.fmiVersion.startswith("3.") and md.coSimulation is not None:
-                self._backend = Fmi3CoSimulation(self)
-            elif md.modelExchange is not None:
-                self._backend = ModelExchange(self)
-            else:
-                raise UserError(f"unsupported FMU: FMI {md.fmiVersion} without co-simulation or "
-                                "model exchange", field=self.path.name)
+            self._backend = self._new_backend()
             self.call("instantiate", self._backend.instantiate)
         except BaseException:
             self._cleanup()
             raise
+
+    def _new_backend(self) -> Backend:
+        """The backend of this FMU's FMI flavour (loads its shared library)."""
+        md = self.model_description
+        if md.fmiVersion == "2.0" and md.coSimulation is not None:
+            return Fmi2CoSimulation(self)
+        if md.fmiVersion.startswith("3.") and md.coSimulation is not None:
+            return Fmi3CoSimulation(self)
+        if md.modelExchange is not None:
+            return ModelExchange(self)
+        raise UserError(f"unsupported FMU: FMI {md.fmiVersion} without co-simulation or model exchange",
+                        field=self.path.name)
 
     # ---- logging and errors ------------------------------------------------
     def on_log(self, status: int, message: str) -> None:
@@ -190,8 +194,9 @@ class FmuSession:
         """Return to the state after instantiation (parameters are re-applied at the next run)."""
         if self._state == "instantiated":
             return
-        if self._state == "fatal":
+        if self._state == "fatal":  # a new instance, library reloaded (fmpy unloads it on free)
             self.call("free instance", self._backend.free)
+            self._backend = self._new_backend()
             self.call("instantiate", self._backend.instantiate)
         else:
             self.call("reset", self._backend.reset)

@@ -1,11 +1,14 @@
 """A campaign's output folder: ``campaign.toml`` (copy), ``traces/*.h5``,
 ``truth.json`` and ``status.json``.
 
-A trace file that exists is complete (they are written atomically), so a
-campaign started again in the same folder skips what is there.
+Trace files are written atomically and ``status.json`` records the sha256 of
+each once it is booked; a campaign started again in the same folder skips the
+traces whose checksum matches and deletes (to simulate again) the others:
+damaged files and files written after the last status update.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -25,6 +28,11 @@ def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
 
+def file_sha256(path: Path) -> str:
+    """sha256 of a file, hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def write_json(path: Path, data: Any) -> None:
     write_atomic(path, (json.dumps(data, indent=1) + "\n").encode())
 
@@ -39,6 +47,7 @@ class TestStatus:
     present: set[str] = field(default_factory=set)
     error: str | None = None
     omega: float | None = None
+    sha256: dict[str, str] = field(default_factory=dict)  # trace file -> checksum
 
     @property
     def state(self) -> str:
@@ -49,7 +58,8 @@ class TestStatus:
 
     def to_json(self) -> dict[str, Any]:
         return {"state": self.state, "group": self.group, "omega": self.omega, "traces": self.traces,
-                "present": sorted(self.present), "error": self.error}
+                "present": sorted(self.present), "error": self.error,
+                "sha256": dict(sorted(self.sha256.items()))}
 
 
 @dataclass
@@ -98,18 +108,35 @@ class Folder:
         for tmp in self.traces.glob(".*.tmp"):
             tmp.unlink(missing_ok=True)
 
-    def present(self) -> set[str]:
-        """Names of the trace files present (complete)."""
-        return {p.name for p in self.traces.glob("*.h5")}
+    def recorded(self) -> dict[str, str]:
+        """Trace file -> sha256 as booked in ``status.json`` (none if unreadable)."""
+        try:
+            tests = json.loads((self.root / "status.json").read_text())["tests"]
+            return {name: digest for t in tests.values() for name, digest in t.get("sha256", {}).items()
+                    if isinstance(name, str) and isinstance(digest, str)}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return {}
+
+    def keep_verified(self) -> dict[str, str]:
+        """The trace files present whose checksum matches ``status.json``, with
+        their checksums; the others are deleted (to be simulated again)."""
+        recorded, good = self.recorded(), {}
+        for path in self.traces.glob("*.h5"):
+            if recorded.get(path.name) == file_sha256(path):
+                good[path.name] = recorded[path.name]
+            else:
+                path.unlink()
+        return good
 
     def status(self, campaign: Campaign, bench: Bench) -> CampaignStatus:
-        """A fresh status with what is already present."""
-        present = self.present()
+        """A fresh status with what is already present (checksums verified)."""
+        present = self.keep_verified()
         tests = {}
         for t in campaign.tests:
             names = [t.trace_name(r) for r in range(t.repetitions)]
             omega = next((i.omega for i in t.excitation if i.kind == "harmonic"), None)
-            tests[t.name] = TestStatus(t.name, t.group, names, present & set(names), omega=omega)
+            have = {n: present[n] for n in names if n in present}
+            tests[t.name] = TestStatus(t.name, t.group, names, set(have), omega=omega, sha256=have)
         status = CampaignStatus(campaign.name, campaign.structure, bench.fmu, bench.fmu_sha256, tests)
         status.skipped = status.count("done")
         return status

@@ -9,6 +9,7 @@ import dataclasses
 import multiprocessing
 import multiprocessing.util
 import os
+import signal
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
@@ -77,14 +78,15 @@ def trace_task(bench: Bench, test: TestSpec, repetitions: list[int], record: Rec
 
 # ---- pools -----------------------------------------------------------------
 class LocalPool:
-    """``jobs`` worker processes (0: run in this process). Workers write
-    trace files themselves."""
+    """``jobs`` worker processes (0: run in this process, without time
+    limit). Workers write trace files themselves."""
 
     writes_files = True
 
     def __init__(self, jobs: int):
         self.jobs = jobs
         self._executor = self._start() if jobs > 0 else None
+        self._workers: dict[int, multiprocessing.Process] = {}
 
     def _start(self) -> ProcessPoolExecutor:
         context = multiprocessing.get_context("forkserver")
@@ -95,20 +97,47 @@ class LocalPool:
     def size(self) -> int:
         return max(self.jobs, 1)
 
+    @property
+    def can_stop(self) -> bool:
+        """Whether :meth:`restart` can stop a task that runs too long."""
+        return self._executor is not None
+
     def submit(self, fn: Callable, *args: Any) -> Future:
         if self._executor is None:
             future: Future = Future()
             future.set_result(fn(*args))
             return future
         try:
-            return self._executor.submit(fn, *args)
+            future = self._executor.submit(fn, *args)
         except BrokenProcessPool:  # a worker died (e.g. the FMU crashed it): start afresh
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = self._start()
-            return self._executor.submit(fn, *args)
+            self.restart()
+            future = self._executor.submit(fn, *args)
+        # the executor's own table of worker processes (kept to read exit codes)
+        self._workers = self._executor._processes  # type: ignore[attr-defined]
+        return future
 
-    def wait(self, futures: Iterable[Future]) -> set[Future]:
-        return wait(list(futures), return_when=FIRST_COMPLETED).done
+    def wait(self, futures: Iterable[Future], timeout: float | None = None) -> set[Future]:
+        return wait(list(futures), timeout=timeout, return_when=FIRST_COMPLETED).done
+
+    def death(self) -> str:
+        """Why a worker process died: the signal or exit code of the one that
+        did not die by the pool's own hand."""
+        codes = [p.exitcode for p in list(self._workers.values()) if p.exitcode not in (None, -signal.SIGTERM)]
+        if not codes:
+            return "the worker process died"
+        code = codes[0]
+        return f"crashed with signal {-code}" if code < 0 else f"the worker process exited with status {code}"
+
+    def restart(self) -> None:
+        """Kill every worker (a task hangs, or one died) and start afresh."""
+        if self._executor is None:
+            return
+        for process in list(self._workers.values()):
+            if process.exitcode is None:
+                process.kill()
+        self._executor.shutdown(wait=True, cancel_futures=True)
+        self._executor = self._start()
+        self._workers = {}
 
     def share(self, obj: Any) -> Any:
         return obj
@@ -144,10 +173,21 @@ class DaskPool:
     def submit(self, fn: Callable, *args: Any) -> Any:
         return self.client.submit(fn, *args, pure=False)
 
-    def wait(self, futures: Iterable[Any]) -> set[Any]:
+    can_stop = False  # a hung task keeps its worker thread: it is only given up
+
+    def wait(self, futures: Iterable[Any], timeout: float | None = None) -> set[Any]:
         from distributed import wait as dask_wait
 
-        return dask_wait(list(futures), return_when="FIRST_COMPLETED").done
+        try:
+            return dask_wait(list(futures), timeout=timeout, return_when="FIRST_COMPLETED").done
+        except TimeoutError:
+            return set()
+
+    def death(self) -> str:
+        return "the worker process died"
+
+    def restart(self) -> None:
+        """Nothing to restart: the cluster's workers are not this process's."""
 
     def share(self, obj: Any) -> Any:
         return self.client.scatter(obj, broadcast=True)

@@ -9,6 +9,7 @@ every task.
 from __future__ import annotations
 
 import math
+import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -36,31 +37,38 @@ class Task:
 
 
 class Scheduler:
-    """Submits the tasks of the missing traces and books their outcomes.
+    """Launches the tasks of the missing traces, at most one per worker, and
+    books their outcomes.
 
     When a worker process dies, every task it took down is retried alone,
-    one at a time from then on, so only the task that kills its worker fails.
+    one at a time from then on, so only the task that kills its worker fails
+    (with the signal that killed it). A task running longer than its test's
+    ``timeout`` fails; local workers are then killed and restarted, and the
+    other tasks they were running are launched again.
     """
 
     def __init__(self, pool: Pool, bench: Bench, folder: Folder, status: CampaignStatus, blob: Any,
                  progress: Callable[[CampaignStatus], None] | None):
         self.pool, self.bench, self.folder, self.status, self.blob = pool, bench, folder, status, blob
         self.progress = progress
-        self.running: dict[Any, tuple[Task, bool]] = {}  # future -> (task, ran alone)
+        self.running: dict[Any, tuple[Task, bool, float]] = {}  # future -> (task, ran alone, start)
         self.queue: deque[Task] = deque()
         self.isolate = False
         self.out_dir = str(folder.traces) if pool.writes_files else None
 
     def submit(self, task: Task) -> None:
-        if self.isolate:
-            self.queue.append(task)
-            return
-        self._launch(task)
+        self.queue.append(task)
 
     def _launch(self, task: Task) -> None:
         future = self.pool.submit(trace_task, self.bench, task.test, task.repetitions, task.record,
                                   bool(task.later), self.out_dir, self.blob)
-        self.running[future] = (task, self.isolate)
+        self.running[future] = (task, self.isolate, time.monotonic())
+
+    def _fill(self) -> None:
+        """Launch queued tasks while a worker is free (only one at a time when isolating)."""
+        room = 1 if self.isolate else self.pool.size
+        while self.queue and len(self.running) < room:
+            self._launch(self.queue.popleft())
 
     def plan(self, tests: Iterable[TestSpec]) -> None:
         """Queue the tasks of every trace not yet present."""
@@ -77,20 +85,24 @@ class Scheduler:
                 self.submit(Task(test, missing[:size], later=missing[size:]))
 
     def book(self, future: Any) -> None:
-        task, alone = self.running.pop(future)
+        task, alone, _ = self.running.pop(future)
         try:
             outcome = future.result()
-        except Exception as err:  # the worker process died
+        except Exception:  # the worker process died
             if not alone:
                 self.isolate = True
-                self.queue.append(task)
+                self.queue.appendleft(task)
                 return
-            outcome = Outcome(task.test.name, error=f"the worker process died ({type(err).__name__}: {err})")
+            outcome = Outcome(task.test.name, error=self.pool.death())
+        self._record(task, outcome)
+
+    def _record(self, task: Task, outcome: Outcome) -> None:
         st = self.status.tests[task.test.name]
-        for name, image in outcome.files:
+        for name, image, digest in outcome.files:
             if image is not None:
                 self.folder.write_trace(name, image)
             st.present.add(name)
+            st.sha256[name] = digest
         if outcome.error is not None:
             st.error = st.error or outcome.error
         elif task.later:
@@ -99,12 +111,34 @@ class Scheduler:
             for i in range(0, len(task.later), size):
                 self.submit(Task(task.test, task.later[i:i + size], record))
 
+    def _next_deadline(self) -> float | None:
+        """Seconds until the first running task exceeds its limit (None: no limit)."""
+        if not self.pool.can_stop or not self.running:
+            return None
+        now = time.monotonic()
+        return max(0.0, min(start + task.test.timeout - now for task, _, start in self.running.values()))
+
+    def _stop_late(self) -> None:
+        """Fail the tasks over their limit; restart the workers, relaunching the others."""
+        now = time.monotonic()
+        late = [f for f, (task, _, start) in self.running.items() if now - start >= task.test.timeout]
+        if not late:
+            return
+        for future in late:
+            task = self.running.pop(future)[0]
+            self._record(task, Outcome(task.test.name, error=f"timed out after {task.test.timeout:g} s"))
+        self.queue.extendleft(reversed([task for task, _, _ in self.running.values()]))
+        self.running.clear()
+        self.pool.restart()
+
     def run(self) -> None:
         while self.running or self.queue:
-            if not self.running:
-                self._launch(self.queue.popleft())
-            for future in self.pool.wait(self.running):
+            self._fill()
+            done = self.pool.wait(self.running, self._next_deadline())
+            for future in done:
                 self.book(future)
+            if not done:
+                self._stop_late()
             self.folder.write_status(self.status)
             if self.progress is not None:
                 self.progress(self.status)

@@ -6,6 +6,7 @@ simulates with its own perturbed excitation.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,12 +39,12 @@ class Record:
 
 @dataclass
 class Outcome:
-    """What a worker hands back for one test: trace files as (name, image)
-    (image None when the worker wrote the file itself), the noise-free record
-    when asked for, or the error that stopped it."""
+    """What a worker hands back for one test: trace files as (name, image,
+    sha256) (image None when the worker wrote the file itself), the
+    noise-free record when asked for, or the error that stopped it."""
 
     test: str
-    files: list[tuple[str, bytes | None]] = field(default_factory=list)
+    files: list[tuple[str, bytes | None, str]] = field(default_factory=list)
     record: Record | None = None
     error: str | None = None
 
@@ -155,11 +156,12 @@ def run_test(rig: Rig, bench: Bench, test: TestSpec, repetitions: Sequence[int],
             else:
                 record = record if record is not None else simulate(rig, bench, test, test.excitation)
                 rec = record
-            image = trace_bytes(make_trace(bench, test, r, rec))
+            image: bytes | None = trace_bytes(make_trace(bench, test, r, rec))
+            digest = hashlib.sha256(image).hexdigest()
             if out_dir is not None:
                 write_atomic(out_dir / test.trace_name(r), image)
                 image = None
-            outcome.files.append((test.trace_name(r), image))
+            outcome.files.append((test.trace_name(r), image, digest))
         outcome.record = record if keep_record else None
     except Exception as err:  # an FMU error, NaN, ...: recorded, the campaign goes on
         outcome.error = f"{type(err).__name__}: {err}"

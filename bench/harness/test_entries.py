@@ -21,7 +21,11 @@ from .toml_table import Table
 if TYPE_CHECKING:
     from .campaign import CampaignReader
 
-TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise")
+TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise",
+             "timeout")
+MAX_STEPS = 1e8  # communication steps of one test (memory: 800 MB per signal)
+MAX_REPETITIONS = 100_000
+DEFAULT_TIMEOUT = 600.0  # s, wall-clock limit of one task of a test (local workers)
 EXCITATION_KEYS = {
     "harmonic": ("kind", "node", "dir", "amplitude", "omega", "phase", "ramp", "settle"),
     "stepped-sine": ("kind", "node", "dir", "amplitude", "omegas", "phase", "ramp", "settle", "window"),
@@ -49,6 +53,7 @@ class TestSpec:
     noise: NoiseSpec
     repetitions: int
     base_seed: int
+    timeout: float = DEFAULT_TIMEOUT
 
     @property
     def n_samples(self) -> int:
@@ -88,10 +93,16 @@ class TestReader:
         if self.dt < self.step * (1 - 1e-9):
             raise table.error("dt", f"sampling interval {self.dt} s is shorter than the communication step "
                                     f"{self.step} s (the FMU's outputs exist only at communication points)")
+        if self.dt / self.step > MAX_STEPS:
+            raise table.error("step", f"{self.dt / self.step:.3g} communication steps per sampling interval; "
+                                      f"at most {MAX_STEPS:.0e} steps per test")
         if abs(self.dt / self.step - round(self.dt / self.step)) > 1e-6:
             raise table.error("dt", f"sampling interval {self.dt} s is not a whole number of communication "
                                     f"steps ({self.step} s)")
         self.repetitions = table.integer("repetitions", 1, low=1)
+        if self.repetitions > MAX_REPETITIONS:
+            raise table.error("repetitions", f"at most {MAX_REPETITIONS}, got {self.repetitions}")
+        self.timeout = table.number("timeout", DEFAULT_TIMEOUT, positive=True)
         noise = table.table("noise")
         self.noise = self._noise(noise, noise.integer("seed", seed, low=0))
 
@@ -251,6 +262,9 @@ class TestReader:
         j, template, omegas, window = stepped
         if duration is None:
             length = template.ramp + template.settle + window
+            if length / self.step > MAX_STEPS:
+                raise self.t.error("excitation", f"ramp, settle and window ({length:.3g} s) are more than "
+                                                 f"{MAX_STEPS:.0e} communication steps")
             duration = math.ceil(length / self.dt - 1e-9) * self.dt
         else:
             duration = self._whole(duration, "duration")
@@ -264,6 +278,9 @@ class TestReader:
 
     def _whole(self, duration: float, key: str) -> float:
         ratio = duration / self.dt
+        if ratio * round(self.dt / self.step) > MAX_STEPS:
+            raise self.t.error(key, f"{duration} s at a {self.step} s step are more than {MAX_STEPS:.0e} "
+                                    "communication steps")
         if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
             raise self.t.error(key, f"{duration} s is not a whole number of sampling intervals ({self.dt} s)")
         return round(ratio) * self.dt
@@ -283,6 +300,6 @@ class TestReader:
             if c.quantity != "force":
                 self.reader.want(key, self.mapping, c.quantity, c.node, c.direction)
         return TestSpec(name, self.name, self.dt, self.step, duration, items, tuple(channels), self.noise,
-                        self.repetitions, self.noise.seed)
+                        self.repetitions, self.noise.seed, self.timeout)
 
 
