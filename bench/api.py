@@ -86,13 +86,15 @@ def list_traces(folder: str | Path) -> dict[str, Any]:
 
 def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None = None,
              groups: Sequence[str] | None = None, tests: Sequence[str] | None = None, joint: bool = False,
-             tag: str | None = None, **options: Any) -> dict[str, Any]:
+             tag: str | None = None, progress: Callable[[int, int], None] | None = None,
+             **options: Any) -> dict[str, Any]:
     """Identify every run of a campaign folder with ``method`` (see
-    :func:`methods`; its options as keywords, e.g. ``samples=8``) and write
-    ``results/<method>[-<tag>].json``; returns that document
-    (docs/results-format.md)."""
+    :func:`methods`, plugins included; its options as keywords, e.g.
+    ``samples=8``) and write ``results/<method>[-<tag>].json``; returns that
+    document (docs/results-format.md). ``progress`` receives (runs done, runs
+    in all) after every run."""
     document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
-                                  groups, tests, joint, tag, options)
+                                  groups, tests, joint, tag, options, progress)
     return document
 
 

@@ -13,6 +13,8 @@ from typing import Any
 
 from structbench import api
 
+from .progress import bar, interactive
+
 HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh) from a campaign's traces"
 
 
@@ -101,8 +103,19 @@ def table(run: dict[str, Any]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group, tests=args.test,
-                            joint=args.joint, tag=args.tag, **options(args))
+    shown = bar(None, "run", args.method) if interactive() else None
+
+    def progress(done: int, total: int) -> None:
+        shown.total, shown.n = total, done
+        shown.refresh()
+
+    try:
+        document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group,
+                                tests=args.test, joint=args.joint, tag=args.tag,
+                                progress=progress if shown is not None else None, **options(args))
+    finally:
+        if shown is not None:
+            shown.close()
     if args.json:
         print(json.dumps(document, indent=1))
         return 0
