@@ -36,7 +36,7 @@ def test_only_structbench_is_installed_at_top_level(installed):
     packages = sorted(str(p.parent.relative_to(installed)) for p in installed.rglob("__init__.py"))
     assert packages == ["structbench", "structbench/cli", "structbench/evaluation", "structbench/fmus",
                         "structbench/harness", "structbench/identification", "structbench/identifier",
-                        "structbench/models"]
+                        "structbench/labdata", "structbench/models"]
     assert sorted(p.name for p in (installed / "structbench" / "campaigns").glob("*.toml")) == sorted(
         p.name for p in (ROOT / "campaigns").glob("*.toml"))
 

@@ -5,6 +5,7 @@ installed with pip into a folder on sys.path, found through its entry point
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -47,9 +48,10 @@ quantities = ["acceleration"]
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory) -> Path:
-    site = tmp_path_factory.mktemp("site")
+    site, source = tmp_path_factory.mktemp("site"), tmp_path_factory.mktemp("plugin") / "src"
+    shutil.copytree(PLUGIN, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
-                    "--target", str(site), str(PLUGIN)], check=True, capture_output=True)
+                    "--target", str(site), str(source)], check=True, capture_output=True)
     sys.path.insert(0, str(site))
     yield site
     sys.path.remove(str(site))
