@@ -48,7 +48,7 @@ def read_csv(path: str | Path) -> list[Signal]:
                         "columns and a record needs two rows at least", field=path.name)
     time = table[:, 0] * conversion(time_unit or "s", f"{path.name} column 1").factor
     return [Signal(path.name, f"{path.name} column {j + 2}", name, table[:, j + 1].copy(), time, unit,
-                   **{k: v for k, v in parse_name(name).items()})
+                   **parse_name(name))
             for j, (name, unit) in enumerate(columns)]
 
 

@@ -42,6 +42,8 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from structbench.models.errors import UserError
 
 from .signals import QUANTITIES, Signal
@@ -118,6 +120,8 @@ def load_map(path: str | Path | None) -> SensorMap:
 
 
 def _value(value: Any) -> str:
+    if isinstance(value, (np.generic, np.ndarray)):
+        value = value.tolist()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
