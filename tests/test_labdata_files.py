@@ -183,6 +183,7 @@ def test_malformed_csv_and_sep005(tmp_path, capsys):
         "no-time.json": (json.dumps([{"name": "acceleration_3_w", "data": [1.0, 2.0], "unit_str": "g"}]),
                          ("no-time.json channel 1", "no time axis")),
         "wrong-type.json": (json.dumps({"name": "a"}), ("wrong-type.json", "list of channel")),
+        "metre-time.csv": ("time [m],acc [g]\n0,1\n1,2\n", ("metre-time.csv column 1", "no time axis")),
         "furlong.csv": ("time [s],acc [furlong/s^2]\n0.0,1.0\n0.1,2.0\n", ("furlong.csv column 2", "furlong")),
     }
     smap = tmp_path / "map.toml"

@@ -17,7 +17,7 @@ import numpy as np
 from structbench.models.errors import UserError
 
 from .signals import Signal, parse_name
-from .units import conversion
+from .units import time_factor
 
 _HEADER = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\])?\s*$")
 TIME_NAMES = ("time", "t")
@@ -46,7 +46,7 @@ def read_csv(path: str | Path) -> list[Signal]:
     if table.shape[1] != len(header) or table.shape[0] < 2:
         raise UserError(f"{table.shape[0]} rows of {table.shape[1]} values; the header names {len(header)} "
                         "columns and a record needs two rows at least", field=path.name)
-    time = table[:, 0] * conversion(time_unit or "s", f"{path.name} column 1").factor
+    time = table[:, 0] * time_factor(time_unit or "s", f"{path.name} column 1")
     return [Signal(path.name, f"{path.name} column {j + 2}", name, table[:, j + 1].copy(), time, unit,
                    **parse_name(name))
             for j, (name, unit) in enumerate(columns)]

@@ -25,7 +25,7 @@ from .sensor_map import UFF_DIRECTIONS, SensorMap, load_map
 from .sep005 import read_sep005
 from .signals import Signal, parse_name, uniform_dt
 from .uff58 import FUNCTION_TYPES, Record58, read_uff58
-from .units import conversion
+from .units import conversion, time_factor
 
 UFF_SUFFIXES = (".uff", ".unv", ".uf")
 # UFF specific data type -> quantity (records 8-11 field 1)
@@ -41,7 +41,7 @@ def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
     if record.abscissa.data_type not in (0, 1, 17):
         raise UserError(f"abscissa data type {record.abscissa.data_type} is not time (17): no time axis",
                         field=f"{where} record 8")
-    time = record.x * conversion(record.abscissa.units or "s", f"{where} record 8").factor
+    time = record.x * time_factor(record.abscissa.units or "s", f"{where} record 8")
     code = abs(record.direction)
     direction = smap.direction(UFF_DIRECTIONS[code - 1]) if 1 <= code <= 6 else None
     named = parse_name(record.id_lines[0])

@@ -89,3 +89,11 @@ def conversion(label: str, channel: str) -> Conversion:
         raise UserError(f"unknown unit {label!r}; known: g, m, mm, in, ft, m/s, mm/s, in/s, m/s^2, N, kN, lbf, "
                         "rad, deg, N m, s, ms and their combinations", field=channel)
     return Conversion(label.strip(), *found)
+
+
+def time_factor(label: str, where: str) -> float:
+    """Seconds per unit of a time axis labelled ``label`` (``s``, ``ms``, ``us``)."""
+    found = conversion(label, where)
+    if found.dimension != "time":
+        raise UserError(f"the time axis has unit {label!r}, a {found.dimension}: no time axis", field=where)
+    return found.factor
