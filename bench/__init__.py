@@ -5,13 +5,14 @@ This package is the public face: the Python API of :mod:`structbench.api`,
 which may import every subpackage; nothing else imports the API but the CLI.
 Subpackages: ``models`` (structures), ``fmus`` (the FMU layer), ``harness``
 (campaigns to traces), ``identifier`` (methods reading traces),
-``identification`` (methods run on a campaign folder), ``evaluation``
+``identification`` (methods run on a campaign folder), ``labdata`` (lab
+files in and out), ``evaluation``
 (scoring, gates, report, reproduce), ``cli`` (the command line over the API).
 """
-from .api import (BuiltFmu, Campaign, CampaignStatus, Method, UserError, build_fmus, check, identify,
-                  list_traces, load_campaign, methods, modes, reproduce, reproduce_table, results_file,
+from .api import (BuiltFmu, Campaign, CampaignStatus, Method, UserError, build_fmus, check, export_traces,
+                  identify, import_data, list_traces, load_campaign, methods, modes, reproduce, reproduce_table, results_file,
                   run_campaign, score)
 
 __all__ = ["BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "identify", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
+           "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
            "results_file", "run_campaign", "score"]

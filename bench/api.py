@@ -29,11 +29,13 @@ from structbench.harness.run import run_campaign
 from structbench.identification.methods import Method, methods
 from structbench.identification.runs import identify_folder
 from structbench.identifier.results import result_path
+from structbench.labdata.exporter import export_traces as _export_traces
+from structbench.labdata.importer import import_files
 from structbench.models import DISSERTATION, load_model
 from structbench.models.errors import UserError
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "identify", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
+           "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
            "results_file", "run_campaign", "score"]
 
 
@@ -84,13 +86,15 @@ def list_traces(folder: str | Path) -> dict[str, Any]:
 
 def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None = None,
              groups: Sequence[str] | None = None, tests: Sequence[str] | None = None, joint: bool = False,
-             tag: str | None = None, **options: Any) -> dict[str, Any]:
+             tag: str | None = None, progress: Callable[[int, int], None] | None = None,
+             **options: Any) -> dict[str, Any]:
     """Identify every run of a campaign folder with ``method`` (see
-    :func:`methods`; its options as keywords, e.g. ``samples=8``) and write
-    ``results/<method>[-<tag>].json``; returns that document
-    (docs/results-format.md)."""
+    :func:`methods`, plugins included; its options as keywords, e.g.
+    ``samples=8``) and write ``results/<method>[-<tag>].json``; returns that
+    document (docs/results-format.md). ``progress`` receives (runs done, runs
+    in all) after every run."""
     document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
-                                  groups, tests, joint, tag, options)
+                                  groups, tests, joint, tag, options, progress)
     return document
 
 
@@ -129,3 +133,21 @@ def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, j
 def reproduce_table(summary: dict[str, Any]) -> list[tuple[str, str, str]]:
     """Rows (case, the dissertation's figure, this run's) of a reproduce summary."""
     return table_rows(summary)
+
+
+def import_data(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
+                name: str | None = None) -> list[Path]:
+    """Measured files (UFF 58 ASCII or binary ``.uff``/``.unv``, ``.csv``,
+    SEP005 ``.json``) into the new trace folder ``out``: one trace per file,
+    SI units from the files' unit fields, the sensor map (TOML) for what the
+    files lack, ``name`` the campaign name. Returns the trace files; a bad
+    file raises :class:`UserError` naming it and leaves no folder behind."""
+    return import_files(files, out, map_file, name)
+
+
+def export_traces(campaign_dir: str | Path, fmt: str, out: str | Path, binary: bool = True) -> list[Path]:
+    """A campaign's traces as ``uff58`` (binary, or ASCII with
+    ``binary=False``), ``csv`` or ``sep005`` files in ``out``, one per trace,
+    with ``out/sensor-map.toml``; ``import_data(files, ..., map_file=that map)``
+    gives the traces back. Returns the data files."""
+    return _export_traces(campaign_dir, fmt, out, binary)

@@ -75,6 +75,14 @@ def test_harness_and_identification_keep_to_their_side():
                                                    "structbench.evaluation", "structbench.cli")]
 
 
+def test_labdata_writes_and_reads_traces_only_through_the_trace_modules():
+    allowed = ("structbench.labdata", "structbench.harness.trace_writer", "structbench.harness.channels",
+               "structbench.identifier.traces", "structbench.models.errors")
+    bad = {str(p.relative_to(ROOT)): sorted(n for n in imports(p) if not under(n, *allowed))
+           for p in sources("bench/labdata")}
+    assert not {k: v for k, v in bad.items() if v}
+
+
 def test_every_package_init_says_what_it_owns_and_may_import():
     for init in [ROOT / f / "__init__.py" for f in PACKAGES] + sorted((ROOT / "bench").glob("*/__init__.py")):
         doc = ast.get_docstring(ast.parse(init.read_text()))

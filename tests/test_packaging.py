@@ -45,9 +45,9 @@ def test_only_structbench_is_installed_at_top_level(venv):
     names = {p.name for p in site.iterdir()} - {"_test_dependencies.pth", "__pycache__"}
     assert {n for n in names if not n.endswith(".dist-info")} == {"structbench"}
     packages = sorted(str(p.parent.relative_to(site)) for p in site.rglob("__init__.py"))
-    assert packages == ["structbench", "structbench/campaigns", "structbench/cli", "structbench/evaluation", "structbench/fmus",
-                        "structbench/harness", "structbench/identification", "structbench/identifier",
-                        "structbench/models"]
+    assert packages == ["structbench", "structbench/campaigns", "structbench/cli", "structbench/evaluation",
+                        "structbench/fmus", "structbench/harness", "structbench/identification", "structbench/identifier",
+                        "structbench/labdata", "structbench/models"]
     assert sorted(p.name for p in (site / "structbench" / "campaigns").glob("*.toml")) == sorted(
         p.name for p in (ROOT / "campaigns").glob("*.toml"))
 

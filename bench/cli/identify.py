@@ -13,6 +13,8 @@ from typing import Any
 
 from structbench import api
 
+from .progress import bar, interactive
+
 HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh) from a campaign's traces"
 
 
@@ -35,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--joint", action="store_true", help="identify the selected groups of a repetition together")
     parser.add_argument("--tag", help="result file results/<method>-<tag>.json")
     parser.add_argument("--json", action="store_true", help="print the result document as JSON")
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="a method option by name, for any method including plugins (repeatable; "
+                             "VALUE parsed as JSON when it is, else a string), e.g. --option modes=3")
     ls, pt, ry = "least-squares", "perturbation", "rayleigh"
     group = parser.add_argument_group(ls)
     group.add_argument("--samples", type=int, metavar="M",
@@ -60,9 +65,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--functions", type=int, metavar="K", help="number of admissible functions (default: sensors)")
 
 
+def generic(items: list[str]) -> dict[str, Any]:
+    """``--option KEY=VALUE`` pairs; VALUE as JSON when it parses, else the string."""
+    out = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise api.UserError(f"{item!r} is not KEY=VALUE", field="--option")
+        try:
+            out[key.strip().replace("-", "_")] = json.loads(text)
+        except json.JSONDecodeError:
+            out[key.strip().replace("-", "_")] = text
+    return out
+
+
 def options(args: argparse.Namespace) -> dict[str, Any]:
-    """The chosen method's options given on the command line."""
-    return {k: getattr(args, k) for k in api.methods()[args.method].defaults if getattr(args, k, None) is not None}
+    """The chosen method's options given on the command line (its own flags,
+    then ``--option``)."""
+    flags = {k: getattr(args, k) for k in api.methods()[args.method].defaults if getattr(args, k, None) is not None}
+    return flags | generic(args.option)
 
 
 def table(run: dict[str, Any]) -> list[str]:
@@ -82,8 +103,19 @@ def table(run: dict[str, Any]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group, tests=args.test,
-                            joint=args.joint, tag=args.tag, **options(args))
+    shown = bar(None, "run", args.method) if interactive() else None
+
+    def progress(done: int, total: int) -> None:
+        shown.total, shown.n = total, done
+        shown.refresh()
+
+    try:
+        document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group,
+                                tests=args.test, joint=args.joint, tag=args.tag,
+                                progress=progress if shown is not None else None, **options(args))
+    finally:
+        if shown is not None:
+            shown.close()
     if args.json:
         print(json.dumps(document, indent=1))
         return 0

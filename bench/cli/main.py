@@ -13,11 +13,12 @@ from types import ModuleType
 
 from structbench import api
 
-COMMANDS = ("modes", "build-fmus", "run", "traces", "identify", "score", "check", "reproduce")
+COMMANDS = ("modes", "build-fmus", "run", "traces", "identify", "score", "check", "reproduce", "import", "export")
+MODULES = {"import": "import_data"}  # command names that are Python keywords
 
 
 def _module(command: str) -> ModuleType:
-    return importlib.import_module(f"{__package__}.{command.replace('-', '_')}")
+    return importlib.import_module(f"{__package__}.{MODULES.get(command, command.replace('-', '_'))}")
 
 
 def build_parser() -> argparse.ArgumentParser:

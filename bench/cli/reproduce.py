@@ -9,6 +9,8 @@ from pathlib import Path
 
 from structbench import api
 
+from .progress import bar, interactive
+
 HELP = "run every dissertation case through FMUs, harness, traces, identifiers and scoring; print and report"
 
 
@@ -27,7 +29,17 @@ def _stderr(line: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr)
+    shown = bar(None, "stage", "reproduce") if interactive() else None
+
+    def stage(line: str) -> None:
+        shown.set_description_str(line.strip()[:60])
+        shown.update(1)
+
+    try:
+        summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr if shown is None else stage)
+    finally:
+        if shown is not None:
+            shown.close()
     if args.json:
         print(json.dumps(summary, indent=1))
     else:

@@ -7,12 +7,12 @@ before any simulation, like the other commands, with the message on stderr.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
-from typing import TextIO
 
 from structbench import api
+
+from .progress import bar, interactive
 
 HELP = "run a test campaign (TOML) on an FMU and log the sensors' traces (HDF5) into a folder"
 
@@ -29,26 +29,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="where a built-in structure's FMU is built (default: DIR/fmus)")
 
 
-class ProgressBar:
-    """One status line on a terminal, redrawn after every finished task."""
+class Progress:
+    """After every finished task: a bar over the trace files on a terminal,
+    else one line per test that settled."""
 
-    def __init__(self, stream: TextIO, width: int = 30):
-        self.stream, self.width, self.start = stream, width, time.monotonic()
+    def __init__(self) -> None:
+        self.bar = bar(None, "trace") if interactive() else None
+        self.reported: set[str] = set()
 
     def __call__(self, status: api.CampaignStatus) -> None:
         tests = status.tests.values()
-        total = sum(len(t.traces) for t in tests)
-        settled = sum(len(t.traces) if t.state == "failed" else len(t.present) for t in tests)
-        done, failed = status.count("done"), status.failed
-        filled = round(self.width * settled / max(total, 1))
-        elapsed = time.monotonic() - self.start
-        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done + failed}/{len(status.tests)} tests"
-                          f", {settled}/{total} traces{f', {failed} failed' if failed else ''}  {elapsed:6.1f} s ")
-        self.stream.flush()
+        if self.bar is not None:
+            self.bar.total = sum(len(t.traces) for t in tests)
+            self.bar.n = sum(len(t.traces) if t.state == "failed" else len(t.present) for t in tests)
+            self.bar.set_postfix_str(f"{status.count('done') + status.failed}/{len(status.tests)} tests"
+                                     + (f", {status.failed} failed" if status.failed else ""), refresh=True)
+            return
+        for t in tests:
+            if t.state in ("done", "failed") and t.name not in self.reported:
+                self.reported.add(t.name)
+                print(f"  {t.name}: {t.state} ({len(self.reported)}/{len(status.tests)} tests)", flush=True)
 
     def finish(self) -> None:
-        self.stream.write("\n")
-        self.stream.flush()
+        if self.bar is not None:
+            self.bar.close()
 
 
 def summary(status: api.CampaignStatus, out: Path, seconds: float) -> str:
@@ -68,12 +72,11 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise api.UserError("is a file, expected a folder", field="--out")
     campaign = api.load_campaign(args.campaign)
-    bar = ProgressBar(sys.stderr) if sys.stderr.isatty() else None
+    progress = Progress()
     start = time.monotonic()
     try:
-        status = api.run_campaign(campaign, args.out, args.jobs, args.scheduler, args.fmu_dir, bar)
+        status = api.run_campaign(campaign, args.out, args.jobs, args.scheduler, args.fmu_dir, progress)
     finally:
-        if bar is not None:
-            bar.finish()
+        progress.finish()
     print(summary(status, args.out, time.monotonic() - start))
     return 1 if status.failed else 0

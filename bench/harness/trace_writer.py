@@ -9,7 +9,7 @@ from __future__ import annotations
 import io
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -32,13 +32,15 @@ def software() -> str:
 
 @dataclass(frozen=True)
 class ChannelData:
-    """One channel's samples (n,) with what the trace says about it."""
+    """One channel's samples (n,) with what the trace says about it;
+    ``attrs`` are further dataset attributes (an import's unit conversion)."""
 
     channel: Channel
     data: np.ndarray
     location: tuple[float, float, float]
     noise_ratio: float
     noise_mode: str
+    attrs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -46,7 +48,8 @@ class Trace:
     """Everything one trace file holds (never the truth).
 
     ``excitation`` holds the commanded (noise-free) forces; ``excitation_attrs``
-    and ``noise_attrs`` become the attributes of ``/excitation`` and ``/noise``.
+    and ``noise_attrs`` become the attributes of ``/excitation`` and ``/noise``;
+    ``attrs`` are further root attributes (an import's source files).
     """
 
     campaign: str
@@ -64,12 +67,13 @@ class Trace:
     excitation: tuple[ChannelData, ...]
     excitation_attrs: dict
     noise_attrs: dict
+    attrs: dict = field(default_factory=dict)
 
     def root_attrs(self) -> dict:
         return {"format": FORMAT, "format_version": FORMAT_VERSION, "campaign": self.campaign,
                 "test": self.test, "group": self.group, "repetition": self.repetition,
                 "structure": self.structure, "fmu_name": self.fmu_name, "fmu_sha256": self.fmu_sha256,
-                "software": software(), "seed": self.seed, "dt": self.dt, "step": self.step}
+                "software": software(), "seed": self.seed, "dt": self.dt, "step": self.step} | self.attrs
 
 
 def _channel(group: h5py.Group, c: ChannelData) -> None:
@@ -77,6 +81,7 @@ def _channel(group: h5py.Group, c: ChannelData) -> None:
     ds.attrs.update({"quantity": c.channel.quantity, "unit": c.channel.unit, "node": c.channel.node,
                      "direction": c.channel.direction, "location": np.asarray(c.location, dtype=np.float64),
                      "noise_ratio": float(c.noise_ratio), "noise_mode": c.noise_mode})
+    _attrs(ds, c.attrs)
 
 
 def _attrs(obj: h5py.HLObject, attrs: dict) -> None:

@@ -4,11 +4,18 @@ A :class:`Method` wraps an identifier's ``identify(traces, model, **options)``
 (``traces``: the :class:`~structbench.identifier.traces.Trace` records of one
 run; ``model``: the model with the unknown parameters, or None) returning an
 :class:`~structbench.identifier.results.Identification`.
+
+Besides the built-ins, every entry point of the group
+``structbench.identifiers`` is a method (docs/plugins.md): its name is the
+entry point's, it loads to a callable of the same signature returning an
+``Identification`` or a run dict of docs/results-format.md, with optional
+attributes ``defaults`` (dict), ``help`` (str), ``model`` and ``choices``.
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from importlib.metadata import entry_points
 from typing import Any
 
 from structbench.identifier import least_squares, perturbation, rayleigh
@@ -63,9 +70,52 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
 )}
 
 
+GROUP = "structbench.identifiers"
+
+
+def _as_result(value: Any, name: str) -> Identification:
+    """A plugin's return value as an Identification (a run dict is checked)."""
+    if isinstance(value, Identification):
+        return value
+    if not isinstance(value, Mapping):
+        raise IdentificationError(f"plugin returned {type(value).__name__}, not a run of docs/results-format.md",
+                                  field=name)
+    try:
+        return Identification.from_dict(dict(value))
+    except TypeError as err:
+        raise IdentificationError(f"plugin returned a run that is not in docs/results-format.md: {err}",
+                                  field=name) from None
+
+
+def _broken(name: str, error: Exception) -> Callable[..., Identification]:
+    def call(*_: Any, **__: Any) -> Identification:
+        raise IdentificationError(f"the plugin failed to load: {type(error).__name__}: {error}", field=name)
+    return call
+
+
+def plugin(entry: Any) -> Method:
+    """The method of one entry point (a plugin that fails to load gives a
+    method that reports why when used)."""
+    try:
+        target = entry.load()
+    except Exception as err:  # any import error of third-party code
+        return Method(entry.name, _broken(entry.name, err), {}, f"plugin {entry.value} (failed to load)", model="none")
+
+    def call(traces: list, model: Any, **options: Any) -> Identification:
+        return _as_result(target(traces, model, **options), entry.name)
+
+    doc = (getattr(target, "__doc__", None) or "").strip().splitlines()
+    return Method(entry.name, call, dict(getattr(target, "defaults", {})),
+                  str(getattr(target, "help", doc[0] if doc else f"plugin {entry.value}")),
+                  {k: tuple(v) for k, v in getattr(target, "choices", {}).items()},
+                  str(getattr(target, "model", "optional")), bool(getattr(target, "postulated", False)))
+
+
 def methods() -> dict[str, Method]:
-    """Every method known by name."""
-    return dict(BUILTIN)
+    """Every method known by name: the built-ins, then the plugins (a plugin
+    cannot replace a built-in)."""
+    found = {e.name: plugin(e) for e in entry_points(group=GROUP) if e.name not in BUILTIN}
+    return dict(BUILTIN) | dict(sorted(found.items()))
 
 
 def method(name: str) -> Method:

@@ -10,7 +10,7 @@ The runs go to ``CAMPAIGN_DIR/results/<method>[-<tag>].json``
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any
@@ -69,9 +69,11 @@ def group_runs(traces: list[Trace], groups: Sequence[str] | None = None, tests: 
 def identify_folder(campaign_dir: str | Path, method_name: str, model: str | None = None,
                     groups: Sequence[str] | None = None, tests: Sequence[str] | None = None,
                     joint: bool = False, tag: str | None = None,
-                    options: Mapping[str, Any] | None = None) -> tuple[dict[str, Any], Path]:
+                    options: Mapping[str, Any] | None = None,
+                    progress: Callable[[int, int], None] | None = None) -> tuple[dict[str, Any], Path]:
     """Identify every run of a campaign folder with one method and write the
-    results file; returns the result document and its path."""
+    results file; returns the result document and its path. ``progress``
+    receives (runs done, runs in all) after every run."""
     folder = Path(campaign_dir)
     if not folder.is_dir():
         raise IdentificationError(f"no such campaign folder {folder}", field="CAMPAIGN_DIR")
@@ -79,8 +81,12 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
     settings = chosen.options(options or {})
     traces = read_traces(folder)
     resolved = resolve_model(model, traces, chosen)
-    results: list[Identification] = [chosen.call(run, resolved, **settings)
-                                      for run in group_runs(traces, groups, tests, joint)]
+    runs = group_runs(traces, groups, tests, joint)
+    results: list[Identification] = []
+    for run in runs:
+        results.append(chosen.call(run, resolved, **settings))
+        if progress is not None:
+            progress(len(results), len(runs))
     document = results_document(chosen.name, results, str(traces[0].attrs.get("campaign", "")),
                                 model or (resolved.name if resolved is not None else traces[0].structure),
                                 {"group": list(groups) if groups else None,

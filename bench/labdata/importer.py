@@ -1,0 +1,140 @@
+"""Import measured files into a trace folder (``docs/trace-format.md``).
+
+One input file becomes one trace file (one test): its channels go to
+``/channels`` (or ``/excitation`` for commanded forces), converted to SI
+from the file's own unit fields, with the conversion in each dataset's
+attributes (``source``, ``source_unit``, ``si_factor``, ``sign``). The
+folder is built beside ``--out`` and renamed at the end, so a failure leaves
+nothing half-written.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from structbench.harness.channels import ROTATIONS, Channel
+from structbench.harness.trace_writer import ChannelData, Trace, trace_bytes, write_atomic
+from structbench.models.errors import UserError
+
+from .csv_files import read_csv
+from .sensor_map import UFF_DIRECTIONS, SensorMap, load_map
+from .sep005 import read_sep005
+from .signals import Signal, parse_name, uniform_dt
+from .uff58 import FUNCTION_TYPES, Record58, read_uff58
+from .units import conversion, time_factor
+
+UFF_SUFFIXES = (".uff", ".unv", ".uf")
+# UFF specific data type -> quantity (records 8-11 field 1)
+UFF_QUANTITIES = {8: "displacement", 11: "velocity", 12: "acceleration", 9: "force", 13: "force"}
+
+
+def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
+    where = f"{file} dataset {record.index}"
+    if record.function_type not in (0, 1):
+        raise UserError(f"function type {record.function_type} ("
+                        f"{FUNCTION_TYPES.get(record.function_type, 'not a time response')}): only time "
+                        "responses (1) can be imported", field=f"{where} record 6")
+    if record.abscissa.data_type not in (0, 1, 17):
+        raise UserError(f"abscissa data type {record.abscissa.data_type} is not time (17): no time axis",
+                        field=f"{where} record 8")
+    time = record.x * time_factor(record.abscissa.units or "s", f"{where} record 8")
+    code = abs(record.direction)
+    direction = smap.direction(UFF_DIRECTIONS[code - 1]) if 1 <= code <= 6 else None
+    named = parse_name(record.id_lines[0])
+    return Signal(file, where, record.id_lines[0], record.y, time, record.ordinate.units or None,
+                  UFF_QUANTITIES.get(record.ordinate.data_type) or named.get("quantity"),
+                  record.node or named.get("node"), named.get("direction") or direction, named.get("group"),
+                  -1.0 if record.direction < 0 else 1.0)
+
+
+def read_signals(path: Path, smap: SensorMap) -> list[Signal]:
+    """The channels of one file, by its suffix (.uff/.unv, .csv, .json = SEP005)."""
+    if not path.is_file():
+        raise UserError("no such file", field=str(path))
+    suffix = path.suffix.lower()
+    if suffix in UFF_SUFFIXES:
+        return [_uff_signal(path.name, r, smap) for r in read_uff58(path)]
+    if suffix == ".csv":
+        return read_csv(path)
+    if suffix == ".json":
+        return read_sep005(path)
+    raise UserError(f"unknown file type {suffix!r}: .uff/.unv (UFF 58), .csv or .json (SEP005)", field=path.name)
+
+
+def _channel(signal: Signal, smap: SensorMap, time: np.ndarray) -> tuple[str, ChannelData]:
+    entry = smap.channel(signal)
+    s = signal.filled(**{k: entry.get(k) for k in ("quantity", "node", "direction", "unit")})
+    missing = [k for k in ("unit", "node", "direction") if getattr(s, k) is None]
+    if missing:
+        raise UserError(f"channel {s.key!r} has no {', '.join(missing)}: give them in the sensor map", field=s.source)
+    unit = conversion(s.unit, s.source)
+    quantity = s.quantity or unit.quantity
+    if unit.quantity != quantity:
+        raise UserError(f"channel {s.key!r}: unit {s.unit!r} is a {unit.dimension}, not a {quantity}", field=s.source)
+    if unit.rotation != (s.direction in ROTATIONS):
+        raise UserError(f"channel {s.key!r}: unit {s.unit!r} does not fit direction {s.direction!r}",
+                        field=s.source)
+    if s.data.shape != time.shape or not np.array_equal(s.time, time):
+        raise UserError(f"channel {s.key!r} is not sampled at the file's first channel's times", field=s.source)
+    factor = unit.factor * s.sign
+    data = s.data if factor == 1.0 else s.data * factor
+    group = "excitation" if entry.get("excitation", s.group == "excitation") else "channels"
+    attrs = {"source": s.source, "source_unit": unit.label, "si_factor": factor, "sign": s.sign}
+    return group, ChannelData(Channel(quantity, int(s.node), str(s.direction)), data,
+                              tuple(entry.get("location", (np.nan, np.nan, np.nan))),
+                              float(entry.get("noise_ratio", 0.0)), str(entry.get("noise_mode", "rms")), attrs)
+
+
+def build_trace(path: Path, smap: SensorMap, campaign: str) -> Trace:
+    """The trace of one file."""
+    signals = read_signals(path, smap)
+    time = signals[0].time
+    dt = uniform_dt(time)
+    if dt is None:
+        raise UserError(f"channel {signals[0].key!r}: the time axis is not uniformly sampled", field=signals[0].source)
+    groups: dict[str, list[ChannelData]] = {"channels": [], "excitation": []}
+    for signal in signals:
+        group, data = _channel(signal, smap, time)
+        groups[group].append(data)
+    names = [f"{g}/{c.channel.name}" for g, members in groups.items() for c in members]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise UserError(f"channel(s) {twice} appear twice", field=path.name)
+    test = smap.test(path.name)
+    name = str(test.get("test", path.stem))
+    return Trace(campaign, name, str(test.get("group", name)), int(test.get("repetition", 0)), smap.structure or "",
+                 "", "", int(test.get("seed", 0)), dt, float(test.get("step", dt)), time,
+                 tuple(groups["channels"]), tuple(groups["excitation"]), dict(test.get("excitation", {})),
+                 dict(test.get("noise", {})), {"source": path.name})
+
+
+def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
+                 name: str | None = None) -> list[Path]:
+    """Import ``files`` into the new folder ``out`` (``out/traces/*.h5``);
+    returns the trace files written (``<file name without suffix>.h5``)."""
+    out = Path(out)
+    if not files:
+        raise UserError("no input files", field="FILE")
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise UserError("exists and is not empty; import into a new folder", field="--out")
+    smap = load_map(map_file)
+    campaign = name or smap.campaign or out.name
+    traces = [build_trace(Path(f), smap, campaign) for f in files]
+    stems = [Path(f).stem for f in files]
+    if len(set(stems)) < len(stems):
+        raise UserError("two input files have the same name (without suffix)", field="FILE")
+    tmp = out.with_name(f".{out.name}.import-{os.getpid()}")
+    try:
+        (tmp / "traces").mkdir(parents=True)
+        for stem, trace in zip(stems, traces):
+            write_atomic(tmp / "traces" / f"{stem}.h5", trace_bytes(trace))
+        if out.exists():
+            out.rmdir()
+        tmp.rename(out)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return [out / "traces" / f"{stem}.h5" for stem in stems]
