@@ -25,7 +25,8 @@ class Channel:
     """One logged signal: ``data`` (n,) in SI units at (``node``, ``direction``).
 
     ``location`` (m, shape (3,)) is NaN where the trace does not give it;
-    ``noise_ratio`` and ``noise_mode`` are the sensor's declared noise.
+    ``noise_ratio`` and ``noise_mode`` are the sensor's declared noise
+    (``noise_declared`` False when the trace does not declare it).
     """
 
     name: str
@@ -37,6 +38,7 @@ class Channel:
     location: np.ndarray
     noise_ratio: float = 0.0
     noise_mode: str = "rms"
+    noise_declared: bool = True
 
     @property
     def dof(self) -> tuple[int, str]:
@@ -151,7 +153,8 @@ def _channel(ds: h5py.Dataset, where: str, n: int) -> Channel:
                    unit=str(attrs["unit"]), node=int(attrs["node"]), direction=str(attrs["direction"]),
                    location=location,
                    noise_ratio=float(attrs.get("noise_ratio", 0.0)),
-                   noise_mode=str(attrs.get("noise_mode", "rms")))
+                   noise_mode=str(attrs.get("noise_mode", "rms")),
+                   noise_declared="noise_ratio" in attrs)
 
 
 def read_trace(path: str | Path) -> Trace:

@@ -1,0 +1,189 @@
+"""The equations of motion as a regression, assembled row by row and streamed over samples.
+
+Row ``(k, r)`` (sample time ``t_k``, DOF ``r``) of the augmented regression
+``Y = [B | F]`` has one entry per column ``j`` (parameter, or the force
+column last) whose matrix touches DOF ``r``; each entry is a linear
+combination of the *raw channels* ``x = [a, v, u, f]`` (4 n per sample):
+
+    Y[(k, r), j] = sum_c W[c, (r, j)] x[k, c]
+
+with ``W`` from the model's assembly triplets (mass: ``a + alpha v``;
+damping: ``v``; stiffness: ``u + beta v``; Rayleigh ``alpha M + beta K``;
+force column: ``f_r``). With ``theta = [p; -1]`` the equation error is
+``e[k, r] = Y[(k, r), :] theta = (M a + C v + K u - f)_r``.
+
+Per DOF row the entries form a small dense block ``Y_r`` (samples, slots),
+so the Gram matrix ``Y^T diag(w^2) Y = sum_r Y_r^T diag(w_r^2) Y_r`` is one
+batched matrix product per chunk of samples: time O(m n s^2) and memory
+O(chunk n s) for ``m`` samples, ``n`` DOF and ``s`` slots per row (about 4-9
+for beams). The expected noise part of that Gram matrix, for independent
+zero-mean channel noise of variance ``sigma^2[k, c]``, is
+
+    D = sum_{k, r} w[k, r]^2 W_r^T diag(sigma^2[k]) W_r,
+
+which only needs ``sum_k w[k, r]^2 sigma^2[k, c]`` per (row, channel) pair.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from structbench.models import Structure
+
+QUANTITIES = ("acceleration", "velocity", "displacement", "force")
+CHUNK_VALUES = 2_000_000  # floats per chunk of the (samples, DOF, slots) block
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where the regression's entries come from. ``W`` (4 n, n_pairs) maps
+    raw channels to (row, column) pairs; ``pair_row``, ``pair_col`` (n_pairs,);
+    ``slots`` (n, s) pair index per row slot (``n_pairs`` pads); ``A``
+    (n_rc, n_pairs) is ``W`` regrouped by (row, channel) pair ``rc_row``,
+    ``rc_chan``; ``n_columns`` = parameters + 1 (force)."""
+
+    n_dof: int
+    n_columns: int
+    W: sp.csr_matrix
+    pair_row: np.ndarray
+    pair_col: np.ndarray
+    slots: np.ndarray
+    A: sp.csr_matrix
+    rc_row: np.ndarray
+    rc_chan: np.ndarray
+
+    @property
+    def P(self) -> sp.csr_matrix:
+        """(n_pairs, n_columns): pair -> column."""
+        n_pairs = self.pair_col.size
+        return sp.csr_matrix((np.ones(n_pairs), (np.arange(n_pairs), self.pair_col)),
+                             shape=(n_pairs, self.n_columns))
+
+    def chunk(self, m: int) -> int:
+        """Samples per chunk."""
+        return max(1, min(m, CHUNK_VALUES // max(1, self.slots.size)))
+
+
+def layout(model: Structure) -> Layout:
+    """The regression layout of ``model`` (its assembly triplets and Rayleigh factors)."""
+    n, n_par = model.n_dof, len(model.parameters)
+    par, rows, cols, vals = model.triplets
+    alpha, beta = model.rayleigh
+    kind = np.array([p.kind for p in model.parameters])[par]
+    acc, vel, disp, frc = (q * n for q in range(4))
+    parts = [(kind == "mass", acc + cols, vals), (kind == "mass", vel + cols, alpha * vals),
+             (kind == "damping", vel + cols, vals), (kind == "stiffness", disp + cols, vals),
+             (kind == "stiffness", vel + cols, beta * vals)]
+    chan = np.concatenate([c[k] for k, c, _ in parts] + [frc + np.arange(n)])
+    row = np.concatenate([rows[k] for k, _, _ in parts] + [np.arange(n)])
+    col = np.concatenate([par[k] for k, _, _ in parts] + [np.full(n, n_par)])
+    val = np.concatenate([v[k] for k, _, v in parts] + [np.ones(n)])
+    keep = val != 0
+    chan, row, col, val = chan[keep], row[keep], col[keep], val[keep]
+    n_columns = n_par + 1
+    pair_key, pair = np.unique(row * n_columns + col, return_inverse=True)
+    pair_row, pair_col = pair_key // n_columns, pair_key % n_columns
+    n_pairs = pair_key.size
+    W = sp.csr_matrix((val, (chan, pair)), shape=(4 * n, n_pairs))
+    counts = np.bincount(pair_row, minlength=n)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    slots = np.full((n, max(1, counts.max(initial=1))), n_pairs)
+    slots[pair_row, np.arange(n_pairs) - start[pair_row]] = np.arange(n_pairs)  # pair_key sorted by row
+    rc_key, rc = np.unique(row * 4 * n + chan, return_inverse=True)
+    A = sp.csr_matrix((val, (rc, pair)), shape=(rc_key.size, n_pairs))
+    return Layout(n, n_columns, W, pair_row, pair_col, slots, A, rc_key // (4 * n), rc_key % (4 * n))
+
+
+def raw(motion, where: slice) -> np.ndarray:
+    """Raw channels ``[a, v, u, f]`` of samples ``where``, (m_chunk, 4 n)."""
+    return np.hstack([getattr(motion, q)[where] for q in QUANTITIES])
+
+
+def raw_variance(motion, where: slice) -> np.ndarray:
+    """Noise variance of the raw channels, (m_chunk, 4 n); zero where undeclared."""
+    m = motion.force[where].shape
+    return np.hstack([motion.sigma[q][where] ** 2 if q in motion.sigma else np.zeros(m) for q in QUANTITIES])
+
+
+def rows(lay: Layout, x: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    """Blocks ``Y_r`` of a chunk, weighted: (m_chunk, n, s)."""
+    y = np.zeros((x.shape[0], lay.pair_col.size + 1))
+    y[:, :-1] = (lay.W.T @ x.T).T
+    out = y[:, lay.slots]
+    if weights is not None:
+        out *= weights[:, :, None]
+    return out
+
+
+def chunks(lay: Layout, m: int) -> Iterator[slice]:
+    step = lay.chunk(m)
+    return (slice(k, min(m, k + step)) for k in range(0, m, step))
+
+
+def _scatter(lay: Layout, blocks: np.ndarray) -> sp.csr_matrix:
+    """Per-row (n, s, s) blocks summed into the (n_columns, n_columns) matrix."""
+    col = np.append(lay.pair_col, lay.n_columns)[lay.slots]  # padding -> an extra column, dropped
+    i = np.broadcast_to(col[:, :, None], blocks.shape).ravel()
+    j = np.broadcast_to(col[:, None, :], blocks.shape).ravel()
+    size = lay.n_columns + 1
+    return sp.csr_matrix((blocks.ravel(), (i, j)), shape=(size, size))[:-1, :-1]
+
+
+def gram(lay: Layout, motion, weights: np.ndarray | None = None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """``G = Y^T diag(w^2) Y`` and its expected noise part ``D``, each
+    (n_columns, n_columns) sparse; ``weights`` (m, n) or None (all ones)."""
+    m = motion.force.shape[0]
+    blocks = np.zeros((lay.n_dof, lay.slots.shape[1], lay.slots.shape[1]))
+    noise = np.zeros(lay.rc_row.size)
+    for where in chunks(lay, m):
+        y = rows(lay, raw(motion, where), None if weights is None else weights[where])
+        yt = y.transpose(1, 0, 2)  # (n, m_chunk, s)
+        blocks += np.matmul(yt.transpose(0, 2, 1), yt)
+        var = raw_variance(motion, where)[:, lay.rc_chan]
+        noise += (var if weights is None else var * weights[where][:, lay.rc_row] ** 2).sum(axis=0)
+    AP = lay.A @ lay.P
+    D = (AP.T @ sp.diags(noise) @ AP).tocsr()
+    return _scatter(lay, blocks), D
+
+
+def scores(lay: Layout, motion, theta: np.ndarray,
+           weights: np.ndarray | None = None) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Per sample, the estimating-function terms ``g_k = sum_r w^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``,
+    (m_chunk, n_columns), and the equation errors ``e`` (m_chunk, n) in N, chunk by chunk.
+
+    At the true ``theta`` each ``g_k`` has zero mean; with noise white in time
+    they are independent, so ``sum_k g_k g_k^T`` estimates the covariance of
+    ``sum_k g_k`` (the "meat" of a sandwich covariance).
+    """
+    m = motion.force.shape[0]
+    n, s = lay.slots.shape
+    theta_slot = np.append(theta[lay.pair_col], 0.0)[lay.slots]  # (n, s)
+    slot_col = np.append(lay.pair_col, 0)[lay.slots].ravel()
+    live = (lay.slots.ravel() < lay.pair_col.size).astype(float)
+    to_col = sp.csr_matrix((live, (np.arange(n * s), slot_col)), shape=(n * s, lay.n_columns))
+    AP = (lay.A @ lay.P).tocsr()
+    h = AP @ theta  # (n_rc,): sum_j W[c, (r, j)] theta_j
+    for where in chunks(lay, m):
+        w = None if weights is None else weights[where]
+        y = rows(lay, raw(motion, where), w)
+        e = np.einsum("krs,rs->kr", y, theta_slot)  # weighted equation error
+        first = (y * e[:, :, None]).reshape(y.shape[0], n * s) @ to_col
+        var = raw_variance(motion, where)[:, lay.rc_chan] * h
+        if w is not None:
+            var *= w[:, lay.rc_row] ** 2
+        yield first - np.asarray(var @ AP), (e if w is None else e / w)
+
+
+def error_variance(lay: Layout, motion, theta: np.ndarray) -> np.ndarray:
+    """Variance of the equation error ``e[k, r]`` from the channel noise at ``theta``, (m, n) N^2:
+    ``sum_c (sum_j W[c, (r, j)] theta_j)^2 sigma^2[k, c]``."""
+    h2 = (lay.A @ lay.P @ theta) ** 2
+    to_row = sp.csr_matrix((h2, (np.arange(h2.size), lay.rc_row)), shape=(h2.size, lay.n_dof))
+    m = motion.force.shape[0]
+    out = np.empty((m, lay.n_dof))
+    for where in chunks(lay, m):
+        out[where] = np.asarray(raw_variance(motion, where)[:, lay.rc_chan] @ to_row)
+    return out
