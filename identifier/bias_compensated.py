@@ -13,7 +13,7 @@ samples removes it. Bias compensation subtracts ``D``:
 (``u``: unknown parameters, ``k``: known ones, ``f``: the force column).
 With ``weighting="noise"`` every row is weighted by the inverse standard
 deviation of its equation error, ``w_kr = 1 / sd(e_kr)`` at the previous
-estimate (two re-weightings after the unweighted solution); ``G`` and ``D``
+estimate (one re-weighting after the unweighted solution); ``G`` and ``D``
 then carry ``w^2``.
 
 Standard errors: the estimator solves ``sum_k g_k(p) = 0`` with
@@ -46,7 +46,7 @@ from .identifiability import check_count, check_excited, not_identifiable, raise
 from .regression import Layout, error_variance, gram, layout, scores
 
 DENSE_COLUMNS = 1000
-REWEIGHTINGS = 2
+REWEIGHTINGS = 1
 
 
 def _check_rank(G: sp.csr_matrix, labels: list[str], rcond: float) -> float:
