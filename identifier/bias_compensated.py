@@ -11,13 +11,16 @@ samples removes it. Bias compensation subtracts ``D``:
     (G - D)_uu p_u = (G - D)_uf - (G - D)_uk p_k
 
 (``u``: unknown parameters, ``k``: known ones, ``f``: the force column).
-With ``weighting="noise"`` every row is weighted by the inverse standard
-deviation of its equation error, ``w_kr = 1 / sd(e_kr)`` at the previous
-estimate (one re-weighting after the unweighted solution); ``G`` and ``D``
-then carry ``w^2``.
+With ``weighting="noise"`` every DOF row is weighted by the inverse RMS
+standard deviation of its equation error over the samples,
+``w_r = 1 / sqrt(mean_k var(e_kr))`` at the previous estimate (re-weighted
+:data:`REWEIGHTINGS` times after the unweighted solution); ``G`` and ``D``
+then carry ``w^2``. The weights are constant in time, so re-weighting needs
+no further pass over the samples: one pass accumulates the per-row blocks
+``Y_r^T Y_r`` and the channel noise, a second one the standard errors.
 
 Standard errors: the estimator solves ``sum_k g_k(p) = 0`` with
-``g_k = sum_r w_kr^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``, zero-mean
+``g_k = sum_r w_r^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``, zero-mean
 at the truth; with noise white in time the ``g_k`` are independent and the
 sandwich ``H^-1 (sum_k g_k g_k^T) H^-1``, ``H = (G - D)_uu``, is the
 covariance of ``p_u`` (to first order). Only its diagonal is formed:
@@ -34,6 +37,8 @@ that ``G - D`` is ill-conditioned or indefinite; parameters are not excited
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -43,10 +48,11 @@ from structbench.models import Structure
 
 from .estimate import Estimate
 from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
-from .regression import Layout, error_variance, gram, layout, scores
+from . import whitened
+from .regression import Layout, error_variance, gram, layout, moments, scores
 
 DENSE_COLUMNS = 1000
-REWEIGHTINGS = 1
+REWEIGHTINGS = 3
 
 
 def _check_rank(G: sp.csr_matrix, labels: list[str], rcond: float) -> float:
@@ -96,21 +102,59 @@ def _theta(model: Structure, mask: np.ndarray, p_u: np.ndarray) -> np.ndarray:
     return np.append(p, -1.0)
 
 
-def _weights(lay: Layout, motion, theta: np.ndarray) -> np.ndarray | None:
-    var = error_variance(lay, motion, theta)
-    if not np.any(var > 0):
-        return None
-    return 1.0 / np.sqrt(var + 1e-12 * var.mean())
+class _RowWeights:
+    """One weight per DOF row (any model size): ``w_r = 1 / sqrt(mean_k var(e_kr))``."""
+
+    label = "noise (one weight per DOF row)"
+
+    def __init__(self, lay: Layout, motion):
+        self.lay, self.motion, self.mom = lay, motion, moments(lay, motion)
+        self.weights: np.ndarray | None = None
+
+    def gram(self, theta: np.ndarray | None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """``G``, ``D`` unweighted (``theta`` None) or weighted at ``theta``."""
+        if theta is not None:
+            var = error_variance(self.lay, self.mom, theta)
+            self.weights = 1.0 / np.sqrt(var + 1e-9 * var.mean())
+        return gram(self.lay, self.mom, self.weights)
+
+    def scores(self, theta: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        return scores(self.lay, self.motion, theta, self.weights)
 
 
-def _std_errors(lay: Layout, motion, theta: np.ndarray, weights: np.ndarray | None, mask: np.ndarray,
+class _Whitening:
+    """Full whitening with the DOF-coupled equation-error covariance
+    (:mod:`identifier.whitened`), up to :data:`whitened.DENSE_DOF` DOF."""
+
+    label = "noise (full DOF covariance)"
+
+    def __init__(self, lay: Layout, motion):
+        self.lay, self.motion, self.mom = lay, motion, moments(lay, motion)
+        self.xtx, self.noise = whitened.raw_gram(lay, motion)
+        self.omega = np.eye(lay.n_dof)
+
+    def gram(self, theta: np.ndarray | None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """Unweighted (``theta`` None) from the per-row blocks, which keep the
+        precision of small columns (rank checks); whitened at ``theta`` from ``X^T X``."""
+        if theta is None:
+            return gram(self.lay, self.mom)
+        S = whitened.error_covariance(self.lay, self.noise / self.motion.force.shape[0], theta)
+        S[np.diag_indices_from(S)] += 1e-9 * np.trace(S) / S.shape[0]
+        self.omega = la.inv(S)
+        return whitened.gram(self.lay, self.xtx, self.noise, self.omega)
+
+    def scores(self, theta: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        return whitened.scores(self.lay, self.motion, theta, self.omega)
+
+
+def _std_errors(scored: Iterator[tuple[np.ndarray, np.ndarray]], mask: np.ndarray,
                 solver: _Solver) -> tuple[np.ndarray, float]:
     """Sandwich standard errors (n_u,) and the RMS of the unweighted equation errors (N)."""
     u = np.flatnonzero(mask)
     var = np.zeros(u.size)
     sq, count = 0.0, 0
-    for g, e in scores(lay, motion, theta, weights):
-        z = solver(np.ascontiguousarray(g[:, u].T))  # (n_u, m_chunk)
+    for g, e in scored:
+        z = solver(np.ascontiguousarray(g[u]))  # (n_u, m_chunk)
         var += np.sum(z**2, axis=1)
         sq, count = sq + float(np.sum(e**2)), count + e.size
     return np.sqrt(var), float(np.sqrt(sq / count))
@@ -124,22 +168,19 @@ def solve_compensated(model: Structure, motion, weighting: str = "noise", rcond:
     known = model.values[~mask]
     check_count(motion.force.size, int(mask.sum()))
     lay = layout(model)
-    G, D = gram(lay, motion)
+    system = (_Whitening if model.n_dof <= whitened.DENSE_DOF else _RowWeights)(lay, motion)
+    G, D = system.gram(None)
     u = np.flatnonzero(mask)
-    norms = {"mass": np.linalg.norm(motion.acceleration), "damping": np.linalg.norm(motion.velocity),
-             "stiffness": np.linalg.norm(motion.displacement)}
+    norms = {kind: float(np.sqrt(np.einsum("ij,ij->", x, x))) for kind, x in
+             (("mass", motion.acceleration), ("damping", motion.velocity), ("stiffness", motion.displacement))}
     check_excited(model, norms, np.sqrt(G.diagonal()[u]), labels)
     condition = _check_rank(G[u][:, u], labels, rcond)
     p_u, solver = _solve(G, D, mask, known)
-    weights = None
     noisy = D.nnz > 0 and weighting == "noise"
     for _ in range(REWEIGHTINGS if noisy else 0):
-        weights = _weights(lay, motion, _theta(model, mask, p_u))
-        if weights is None:
-            break
-        p_u, solver = _solve(*gram(lay, motion, weights), mask, known)
+        p_u, solver = _solve(*system.gram(_theta(model, mask, p_u)), mask, known)
     theta = _theta(model, mask, p_u)
-    std, residual = _std_errors(lay, motion, theta, weights, mask, solver)
+    std, residual = _std_errors(system.scores(theta), mask, solver)
     return Estimate(p_u, std, condition, residual, motion.force.size,
-                    {"estimator": "bias-compensated", "weighting": "noise" if weights is not None else "none",
+                    {"estimator": "bias-compensated", "weighting": system.label if noisy else "none",
                      "std_errors": "sandwich (noise white in time)"})

@@ -34,14 +34,15 @@ import scipy.sparse as sp
 from structbench.models import Structure
 
 QUANTITIES = ("acceleration", "velocity", "displacement", "force")
-CHUNK_VALUES = 2_000_000  # floats per chunk of the (samples, DOF, slots) block
+CHUNK_VALUES = 4_000_000  # floats per chunk of the (DOF, slots, samples) block
 
 
 @dataclass(frozen=True)
 class Layout:
     """Where the regression's entries come from. ``W`` (4 n, n_pairs) maps
     raw channels to (row, column) pairs; ``pair_row``, ``pair_col`` (n_pairs,);
-    ``slots`` (n, s) pair index per row slot (``n_pairs`` pads); ``A``
+    ``slots`` (n, s) pair index per row slot (``n_pairs`` pads); ``to_slots``
+    (n s, 4 n) is ``W^T`` laid out by slot (pads: empty rows); ``A``
     (n_rc, n_pairs) is ``W`` regrouped by (row, channel) pair ``rc_row``,
     ``rc_chan``; ``n_columns`` = parameters + 1 (force)."""
 
@@ -51,6 +52,7 @@ class Layout:
     pair_row: np.ndarray
     pair_col: np.ndarray
     slots: np.ndarray
+    to_slots: sp.csr_matrix
     A: sp.csr_matrix
     rc_row: np.ndarray
     rc_chan: np.ndarray
@@ -62,9 +64,17 @@ class Layout:
         return sp.csr_matrix((np.ones(n_pairs), (np.arange(n_pairs), self.pair_col)),
                              shape=(n_pairs, self.n_columns))
 
+    @property
+    def slot_to_column(self) -> sp.csr_matrix:
+        """(n s, n_columns): slot -> column (pads: empty rows)."""
+        flat = self.slots.ravel()
+        live = np.flatnonzero(flat < self.pair_col.size)
+        return sp.csr_matrix((np.ones(live.size), (live, self.pair_col[flat[live]])),
+                             shape=(flat.size, self.n_columns))
+
     def chunk(self, m: int) -> int:
         """Samples per chunk."""
-        return max(1, min(m, CHUNK_VALUES // max(1, self.slots.size)))
+        return max(1, min(m, CHUNK_VALUES // max(1, self.slots.size, self.rc_row.size)))
 
 
 def layout(model: Structure) -> Layout:
@@ -90,37 +100,62 @@ def layout(model: Structure) -> Layout:
     W = sp.csr_matrix((val, (chan, pair)), shape=(4 * n, n_pairs))
     counts = np.bincount(pair_row, minlength=n)
     start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    slots = np.full((n, max(1, counts.max(initial=1))), n_pairs)
-    slots[pair_row, np.arange(n_pairs) - start[pair_row]] = np.arange(n_pairs)  # pair_key sorted by row
+    width = max(1, counts.max(initial=1))
+    slot_of_pair = pair_row * width + np.arange(n_pairs) - start[pair_row]  # pair_key sorted by row
+    slots = np.full(n * width, n_pairs)
+    slots[slot_of_pair] = np.arange(n_pairs)
+    to_slots = sp.csr_matrix((val, (slot_of_pair[pair], chan)), shape=(n * width, 4 * n))
     rc_key, rc = np.unique(row * 4 * n + chan, return_inverse=True)
     A = sp.csr_matrix((val, (rc, pair)), shape=(rc_key.size, n_pairs))
-    return Layout(n, n_columns, W, pair_row, pair_col, slots, A, rc_key // (4 * n), rc_key % (4 * n))
+    return Layout(n, n_columns, W, pair_row, pair_col, slots.reshape(n, width), to_slots, A,
+                  rc_key // (4 * n), rc_key % (4 * n))
 
 
 def raw(motion, where: slice) -> np.ndarray:
-    """Raw channels ``[a, v, u, f]`` of samples ``where``, (m_chunk, 4 n)."""
-    return np.hstack([getattr(motion, q)[where] for q in QUANTITIES])
+    """Raw channels ``[a, v, u, f]`` of samples ``where``, transposed: (4 n, m_chunk)."""
+    return np.vstack([getattr(motion, q)[where].T for q in QUANTITIES])
 
 
 def raw_variance(motion, where: slice) -> np.ndarray:
-    """Noise variance of the raw channels, (m_chunk, 4 n); zero where undeclared."""
-    m = motion.force[where].shape
-    return np.hstack([motion.sigma[q][where] ** 2 if q in motion.sigma else np.zeros(m) for q in QUANTITIES])
+    """Noise variance of the raw channels, (4 n, m_chunk); zero where undeclared."""
+    shape = motion.force[where].T.shape
+    return np.vstack([motion.sigma[q][where].T ** 2 if q in motion.sigma else np.zeros(shape)
+                      for q in QUANTITIES])
 
 
-def rows(lay: Layout, x: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
-    """Blocks ``Y_r`` of a chunk, weighted: (m_chunk, n, s)."""
-    y = np.zeros((x.shape[0], lay.pair_col.size + 1))
-    y[:, :-1] = (lay.W.T @ x.T).T
-    out = y[:, lay.slots]
-    if weights is not None:
-        out *= weights[:, :, None]
-    return out
+def rows(lay: Layout, x: np.ndarray) -> np.ndarray:
+    """Blocks ``Y_r^T`` of a chunk ``x`` (4 n, m_chunk): (n, s, m_chunk)."""
+    return np.asarray(lay.to_slots @ x).reshape(lay.n_dof, lay.slots.shape[1], x.shape[1])
 
 
 def chunks(lay: Layout, m: int) -> Iterator[slice]:
     step = lay.chunk(m)
     return (slice(k, min(m, k + step)) for k in range(0, m, step))
+
+
+@dataclass(frozen=True)
+class Moments:
+    """One pass over the samples: per DOF row the block ``Y_r^T Y_r`` (n, s, s)
+    and per raw channel the summed noise variance ``sum_k sigma^2[c, k]`` (4 n,);
+    ``samples``: m."""
+
+    blocks: np.ndarray
+    noise: np.ndarray
+    samples: int
+
+
+def moments(lay: Layout, motion) -> Moments:
+    """The :class:`Moments` of ``motion`` (streamed over chunks of samples)."""
+    m = motion.force.shape[0]
+    blocks = np.zeros((lay.n_dof, lay.slots.shape[1], lay.slots.shape[1]))
+    noise = np.zeros(4 * lay.n_dof)
+    for where in chunks(lay, m):
+        y = rows(lay, raw(motion, where))
+        blocks += np.matmul(y, y.transpose(0, 2, 1))
+    for i, q in enumerate(QUANTITIES):  # sum_k sigma^2, without the (4 n, m) copy
+        if q in motion.sigma:
+            noise[i * lay.n_dof:(i + 1) * lay.n_dof] = np.einsum("kn,kn->n", motion.sigma[q], motion.sigma[q])
+    return Moments(blocks, noise, m)
 
 
 def _scatter(lay: Layout, blocks: np.ndarray) -> sp.csr_matrix:
@@ -132,27 +167,19 @@ def _scatter(lay: Layout, blocks: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((blocks.ravel(), (i, j)), shape=(size, size))[:-1, :-1]
 
 
-def gram(lay: Layout, motion, weights: np.ndarray | None = None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+def gram(lay: Layout, mom: Moments, weights: np.ndarray | None = None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """``G = Y^T diag(w^2) Y`` and its expected noise part ``D``, each
-    (n_columns, n_columns) sparse; ``weights`` (m, n) or None (all ones)."""
-    m = motion.force.shape[0]
-    blocks = np.zeros((lay.n_dof, lay.slots.shape[1], lay.slots.shape[1]))
-    noise = np.zeros(lay.rc_row.size)
-    for where in chunks(lay, m):
-        y = rows(lay, raw(motion, where), None if weights is None else weights[where])
-        yt = y.transpose(1, 0, 2)  # (n, m_chunk, s)
-        blocks += np.matmul(yt.transpose(0, 2, 1), yt)
-        var = raw_variance(motion, where)[:, lay.rc_chan]
-        noise += (var if weights is None else var * weights[where][:, lay.rc_row] ** 2).sum(axis=0)
+    (n_columns, n_columns) sparse; ``weights`` per DOF row (n,) or None (all ones)."""
+    w2 = np.ones(lay.n_dof) if weights is None else weights**2
     AP = lay.A @ lay.P
-    D = (AP.T @ sp.diags(noise) @ AP).tocsr()
-    return _scatter(lay, blocks), D
+    D = (AP.T @ sp.diags(mom.noise[lay.rc_chan] * w2[lay.rc_row]) @ AP).tocsr()
+    return _scatter(lay, mom.blocks * w2[:, None, None]), D
 
 
 def scores(lay: Layout, motion, theta: np.ndarray,
            weights: np.ndarray | None = None) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Per sample, the estimating-function terms ``g_k = sum_r w^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``,
-    (m_chunk, n_columns), and the equation errors ``e`` (m_chunk, n) in N, chunk by chunk.
+    """Per sample, the estimating-function terms ``g_k = sum_r w_r^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``,
+    transposed (n_columns, m_chunk), and the equation errors ``e`` (n, m_chunk) in N, chunk by chunk.
 
     At the true ``theta`` each ``g_k`` has zero mean; with noise white in time
     they are independent, so ``sum_k g_k g_k^T`` estimates the covariance of
@@ -160,30 +187,23 @@ def scores(lay: Layout, motion, theta: np.ndarray,
     """
     m = motion.force.shape[0]
     n, s = lay.slots.shape
+    w2 = np.ones(n) if weights is None else weights**2
     theta_slot = np.append(theta[lay.pair_col], 0.0)[lay.slots]  # (n, s)
-    slot_col = np.append(lay.pair_col, 0)[lay.slots].ravel()
-    live = (lay.slots.ravel() < lay.pair_col.size).astype(float)
-    to_col = sp.csr_matrix((live, (np.arange(n * s), slot_col)), shape=(n * s, lay.n_columns))
+    to_col = lay.slot_to_column.T.tocsr()
     AP = (lay.A @ lay.P).tocsr()
-    h = AP @ theta  # (n_rc,): sum_j W[c, (r, j)] theta_j
+    hw = (AP @ theta) * w2[lay.rc_row]  # (n_rc,): w_r^2 sum_j W[c, (r, j)] theta_j
+    spread = (AP.T @ sp.csr_matrix((hw, (np.arange(hw.size), lay.rc_chan)),
+                                   shape=(hw.size, 4 * n))).tocsr()  # (n_columns, 4 n)
     for where in chunks(lay, m):
-        w = None if weights is None else weights[where]
-        y = rows(lay, raw(motion, where), w)
-        e = np.einsum("krs,rs->kr", y, theta_slot)  # weighted equation error
-        first = (y * e[:, :, None]).reshape(y.shape[0], n * s) @ to_col
-        var = raw_variance(motion, where)[:, lay.rc_chan] * h
-        if w is not None:
-            var *= w[:, lay.rc_row] ** 2
-        yield first - np.asarray(var @ AP), (e if w is None else e / w)
+        y = rows(lay, raw(motion, where))
+        e = np.einsum("rsk,rs->rk", y, theta_slot)  # equation error, N
+        first = to_col @ (y * (w2[:, None] * e)[:, None, :]).reshape(n * s, -1)
+        yield first - spread @ raw_variance(motion, where), e
 
 
-def error_variance(lay: Layout, motion, theta: np.ndarray) -> np.ndarray:
-    """Variance of the equation error ``e[k, r]`` from the channel noise at ``theta``, (m, n) N^2:
-    ``sum_c (sum_j W[c, (r, j)] theta_j)^2 sigma^2[k, c]``."""
+def error_variance(lay: Layout, mom: Moments, theta: np.ndarray) -> np.ndarray:
+    """Variance of the equation error at each DOF row, averaged over the samples,
+    from the channel noise at ``theta``, (n,) N^2:
+    ``sum_c (sum_j W[c, (r, j)] theta_j)^2 mean_k sigma^2[c, k]``."""
     h2 = (lay.A @ lay.P @ theta) ** 2
-    to_row = sp.csr_matrix((h2, (np.arange(h2.size), lay.rc_row)), shape=(h2.size, lay.n_dof))
-    m = motion.force.shape[0]
-    out = np.empty((m, lay.n_dof))
-    for where in chunks(lay, m):
-        out[where] = np.asarray(raw_variance(motion, where)[:, lay.rc_chan] @ to_row)
-    return out
+    return np.bincount(lay.rc_row, h2 * mom.noise[lay.rc_chan] / mom.samples, minlength=lay.n_dof)

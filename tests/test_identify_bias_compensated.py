@@ -15,7 +15,7 @@ from structbench.identifier.traces import read_trace
 from structbench.models import load_model
 
 SHEAR_FRAME = Path(__file__).resolve().parents[1] / "docs" / "examples" / "shear-frame-3.toml"
-DT, N = 0.002, 2001
+DT, N = 0.002, 4001
 EVERY = {"acceleration": 0.02, "velocity": 0.02, "displacement": 0.02, "force": 0.02}
 SEEDS = range(60)
 
