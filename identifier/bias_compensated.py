@@ -129,8 +129,7 @@ class _Whitening:
     label = "noise (full DOF covariance)"
 
     def __init__(self, lay: Layout, motion):
-        self.lay, self.motion, self.mom = lay, motion, moments(lay, motion)
-        self.xtx, self.noise = whitened.raw_gram(lay, motion)
+        self.lay, self.motion, self.mom = lay, motion, moments(lay, motion, raw_gram=True)
         self.omega = np.eye(lay.n_dof)
 
     def gram(self, theta: np.ndarray | None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -138,10 +137,10 @@ class _Whitening:
         precision of small columns (rank checks); whitened at ``theta`` from ``X^T X``."""
         if theta is None:
             return gram(self.lay, self.mom)
-        S = whitened.error_covariance(self.lay, self.noise / self.motion.force.shape[0], theta)
+        S = whitened.error_covariance(self.lay, self.mom.noise / self.mom.samples, theta)
         S[np.diag_indices_from(S)] += 1e-9 * np.trace(S) / S.shape[0]
         self.omega = la.inv(S)
-        return whitened.gram(self.lay, self.xtx, self.noise, self.omega)
+        return whitened.gram(self.lay, self.mom.raw_gram, self.mom.noise, self.omega)
 
     def scores(self, theta: np.ndarray) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         return whitened.scores(self.lay, self.motion, theta, self.omega)

@@ -207,6 +207,9 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         details=times | est.details | {
             "n_equations": est.n_equations, "condition": est.condition, "residual_rms": est.residual_rms,
             "motion": sorted({how for _, how in parts}),
+            **({"std_errors": est.details.get("std_errors", "") + "; too small here: integrated displacements "
+                "and velocities carry errors correlated in time"} if any(how != "measured" for _, how in parts)
+               and np.any(motion.sigma["acceleration"] > 0) else {}),
             "noise": ("estimated from the data (second differences) for " + ", ".join(estimated[:8])
                       + (f" and {len(estimated) - 8} more" if len(estimated) > 8 else "")
                       if estimated else "declared by the traces")})

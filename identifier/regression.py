@@ -137,25 +137,31 @@ def chunks(lay: Layout, m: int) -> Iterator[slice]:
 class Moments:
     """One pass over the samples: per DOF row the block ``Y_r^T Y_r`` (n, s, s)
     and per raw channel the summed noise variance ``sum_k sigma^2[c, k]`` (4 n,);
-    ``samples``: m."""
+    ``samples``: m; ``raw_gram``: ``X^T X`` (4 n, 4 n) when asked for."""
 
     blocks: np.ndarray
     noise: np.ndarray
     samples: int
+    raw_gram: np.ndarray | None = None
 
 
-def moments(lay: Layout, motion) -> Moments:
-    """The :class:`Moments` of ``motion`` (streamed over chunks of samples)."""
+def moments(lay: Layout, motion, raw_gram: bool = False) -> Moments:
+    """The :class:`Moments` of ``motion`` (streamed over chunks of samples);
+    with ``raw_gram`` also ``X^T X`` (4 n, 4 n) of the raw channels."""
     m = motion.force.shape[0]
     blocks = np.zeros((lay.n_dof, lay.slots.shape[1], lay.slots.shape[1]))
     noise = np.zeros(4 * lay.n_dof)
+    xtx = np.zeros((4 * lay.n_dof, 4 * lay.n_dof)) if raw_gram else None
     for where in chunks(lay, m):
-        y = rows(lay, raw(motion, where))
+        x = raw(motion, where)
+        y = rows(lay, x)
         blocks += np.matmul(y, y.transpose(0, 2, 1))
+        if xtx is not None:
+            xtx += x @ x.T
     for i, q in enumerate(QUANTITIES):  # sum_k sigma^2, without the (4 n, m) copy
         if q in motion.sigma:
             noise[i * lay.n_dof:(i + 1) * lay.n_dof] = np.einsum("kn,kn->n", motion.sigma[q], motion.sigma[q])
-    return Moments(blocks, noise, m)
+    return Moments(blocks, noise, m, xtx)
 
 
 def _scatter(lay: Layout, blocks: np.ndarray) -> sp.csr_matrix:

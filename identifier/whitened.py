@@ -15,7 +15,8 @@ for the raw channels ``x_k`` (4 n,):
     D = E[noise part of G]    = P^T ((W^T diag(sum_k sigma_k^2) W) o Omega[row_p, row_q]) P
 
 (``o``: element-wise product over the (row, column) pairs ``p``, ``q``; ``P``
-maps pairs to columns). One pass accumulates ``X^T X`` (4 n, 4 n): time
+maps pairs to columns). ``X^T X`` (4 n, 4 n) is accumulated in the pass of
+:func:`identifier.regression.moments`: time
 O(m n^2), memory O(n^2), hence the DOF limit. The per-sample estimating
 terms for the sandwich standard errors are
 
@@ -28,20 +29,9 @@ from collections.abc import Iterator
 import numpy as np
 import scipy.sparse as sp
 
-from .regression import QUANTITIES, Layout, chunks, raw, raw_variance
+from .regression import Layout, chunks, raw, raw_variance
 
 DENSE_DOF = 400
-
-
-def raw_gram(lay: Layout, motion) -> tuple[np.ndarray, np.ndarray]:
-    """``X^T X`` (4 n, 4 n) of the raw channels and ``sum_k sigma^2`` (4 n,)."""
-    xtx = np.zeros((4 * lay.n_dof, 4 * lay.n_dof))
-    for where in chunks(lay, motion.force.shape[0]):
-        x = raw(motion, where)
-        xtx += x @ x.T
-    noise = np.concatenate([np.einsum("kn,kn->n", motion.sigma[q], motion.sigma[q]) if q in motion.sigma
-                            else np.zeros(lay.n_dof) for q in QUANTITIES])
-    return xtx, noise
 
 
 def equation_matrix(lay: Layout, theta: np.ndarray) -> np.ndarray:
