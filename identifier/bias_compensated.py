@@ -11,16 +11,24 @@ samples removes it. Bias compensation subtracts ``D``:
     (G - D)_uu p_u = (G - D)_uf - (G - D)_uk p_k
 
 (``u``: unknown parameters, ``k``: known ones, ``f``: the force column).
-With ``weighting="noise"`` every DOF row is weighted by the inverse RMS
-standard deviation of its equation error over the samples,
-``w_r = 1 / sqrt(mean_k var(e_kr))`` at the previous estimate (re-weighted
-:data:`REWEIGHTINGS` times after the unweighted solution); ``G`` and ``D``
-then carry ``w^2``. The weights are constant in time, so re-weighting needs
-no further pass over the samples: one pass accumulates the per-row blocks
-``Y_r^T Y_r`` and the channel noise, a second one the standard errors.
+With ``weighting="noise"`` the equations are whitened by the noise at the
+previous estimate (re-weighted :data:`REWEIGHTINGS` times after the
+unweighted solution); ``G`` and ``D`` then carry the weights:
+
+* up to :data:`identifier.whitened.DENSE_DOF` DOF, by the inverse of the
+  DOF-coupled covariance of one sample's equation errors,
+  ``Omega = (Mt^T diag(sigma^2) Mt)^-1`` (:mod:`identifier.whitened`): this
+  is what makes noisy displacements (entering through ``K``) harmless;
+* beyond, one weight per DOF row, ``w_r = 1 / sqrt(mean_k var(e_kr))``.
+
+The weights are constant in time, so re-weighting needs no further pass over
+the samples: one pass accumulates the per-row blocks ``Y_r^T Y_r``, the raw
+channels' ``X^T X`` (whitened case) and the channel noise; a second one the
+standard errors.
 
 Standard errors: the estimator solves ``sum_k g_k(p) = 0`` with
-``g_k = sum_r w_r^2 (Y_kr e_kr - W_r^T diag(sigma_k^2) W_r theta)``, zero-mean
+``g_k = B_k^T Omega e_k - E[dB_k^T Omega dB_k] theta`` (``Omega`` diagonal for
+row weights, the identity unweighted), zero-mean
 at the truth; with noise white in time the ``g_k`` are independent and the
 sandwich ``H^-1 (sum_k g_k g_k^T) H^-1``, ``H = (G - D)_uu``, is the
 covariance of ``p_u`` (to first order). Only its diagonal is formed:
@@ -47,8 +55,8 @@ import scipy.sparse.linalg as sla
 from structbench.models import Structure
 
 from .estimate import Estimate
-from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
 from . import whitened
+from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
 from .regression import Layout, error_variance, gram, layout, moments, scores
 
 DENSE_COLUMNS = 1000
