@@ -25,7 +25,8 @@ class Channel:
     """One logged signal: ``data`` (n,) in SI units at (``node``, ``direction``).
 
     ``location`` (m, shape (3,)) is NaN where the trace does not give it;
-    ``noise_ratio`` and ``noise_mode`` are the sensor's declared noise.
+    ``noise_ratio`` and ``noise_mode`` are the sensor's declared noise
+    (``noise_declared`` False when the trace does not declare it).
     """
 
     name: str
@@ -37,6 +38,7 @@ class Channel:
     location: np.ndarray
     noise_ratio: float = 0.0
     noise_mode: str = "rms"
+    noise_declared: bool = True
 
     @property
     def dof(self) -> tuple[int, str]:
@@ -186,7 +188,7 @@ def _channel(ds: Any, where: str, n: int, sensor: bool) -> Channel:
                    unit=str(attrs["unit"]), node=_number(attrs["node"], where, f"{name} node", int),
                    direction=str(attrs["direction"]), location=location,
                    noise_ratio=_number(attrs.get("noise_ratio", 0.0), where, f"{name} noise_ratio"),
-                   noise_mode=mode)
+                   noise_mode=mode, noise_declared="noise_ratio" in attrs)
 
 
 def _group(f: h5py.File, name: str, where: str, sensor: bool, n: int) -> dict[str, Channel]:

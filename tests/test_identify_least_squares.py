@@ -55,7 +55,7 @@ def noisy_runs(beam, tmp_path_factory):
     exact = beam.modes(10).omega
     out = {}
     for m in (4, 8):
-        runs = [identify([t], beam, samples=m, interval=0.5) for t in traces]
+        runs = [identify([t], beam, estimator="ols", samples=m, interval=0.5) for t in traces]
         out[m] = {"rms": np.array([nrms(r.values(), truth) for r in runs]),
                   "freq": np.array([np.abs(np.array(r.omega[2:10]) / exact[2:10] - 1) for r in runs]),
                   "runs": runs}
@@ -64,7 +64,7 @@ def noisy_runs(beam, tmp_path_factory):
 
 @pytest.mark.parametrize("m", [4, 8])
 def test_noise_free_recovers_all_30_parameters(beam, clean_trace, m):
-    result = identify([clean_trace], beam, samples=m, interval=0.5)
+    result = identify([clean_trace], beam, estimator="ols", samples=m, interval=0.5)
     truth = beam.values[beam.kind_mask()]
     assert len(result.parameters) == 30
     assert result.labels()[:2] == ["mass[1]", "stiffness[1]"]
@@ -87,8 +87,8 @@ def test_integrated_displacements_are_exact_for_the_held_force(beam, tmp_path):
 
 def test_trapezoid_at_10_ms_shows_the_known_sensitivity(beam, clean_trace):
     truth = beam.values[beam.kind_mask()]
-    trapezoid = identify([clean_trace], beam, samples=4, integration="trapezoid")
-    held = identify([clean_trace], beam, samples=4, integration="zoh-simpson")
+    trapezoid = identify([clean_trace], beam, estimator="ols", samples=4, integration="trapezoid")
+    held = identify([clean_trace], beam, estimator="ols", samples=4, integration="zoh-simpson")
     assert nrms(trapezoid.values(), truth) == pytest.approx(0.29, abs=0.01)
     assert nrms(held.values(), truth) < 1e-4
 

@@ -42,10 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "VALUE parsed as JSON when it is, else a string), e.g. --option modes=3")
     ls, pt, ry = "least-squares", "perturbation", "rayleigh"
     group = parser.add_argument_group(ls)
+    group.add_argument("--estimator", choices=known[ls].choices["estimator"],
+                       help="bias-compensated: every channel's noise compensated, calibrated standard errors "
+                            "(default); ols: the dissertation's least squares")
     group.add_argument("--samples", type=int, metavar="M",
-                       help=f"sample times per trace (default {_default(ls, 'samples')})")
+                       help="sample times per trace (default: every sample)")
     group.add_argument("--interval", type=float, metavar="S",
-                       help=f"t_k = t_0 + interval k, s (default {_default(ls, 'interval')})")
+                       help=f"with --samples: t_k = t_0 + interval k, s (default {_default(ls, 'interval')})")
     group.add_argument("--integration", choices=known[ls].choices["integration"],
                        help="displacements and velocities: measured when logged (auto), else integrated")
     group.add_argument("--weighting", choices=known[ls].choices["weighting"],

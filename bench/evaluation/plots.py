@@ -108,3 +108,23 @@ def _align(shape: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Scale ``shape`` to best fit ``reference`` in the least-squares sense."""
     denom = float(shape @ shape)
     return shape * (float(shape @ reference) / denom) if denom > 0 else shape
+
+
+def coverage(path: Path, title: str, rows: dict[str, dict[str, float]]) -> Path:
+    """95 % interval coverage per parameter kind (bars) for each results file
+    (``rows[name][kind]`` in [0, 1]), with the calibrated band 0.90-0.98."""
+    names = list(rows)
+    kinds = list(dict.fromkeys(k for r in rows.values() for k in r))
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    width = 0.8 / max(1, len(kinds))
+    x = np.arange(len(names))
+    for i, kind in enumerate(kinds):
+        ax.bar(x + i * width, [rows[n].get(kind, np.nan) for n in names], width, label=kind)
+    ax.axhspan(0.90, 0.98, color="0.85", zorder=0, label="calibrated (0.90-0.98)")
+    ax.axhline(0.95, color="k", lw=0.8)
+    ax.set_xticks(x + 0.4 - width / 2, names, rotation=20, ha="right", fontsize=7)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("95 % interval coverage")
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="lower left")
+    return _save(fig, path)

@@ -66,6 +66,8 @@ def score_run(run: dict[str, Any], truth: dict[str, Any]) -> dict[str, Any]:
         est = np.array([p["value"] for p in params], dtype=float)
         out |= {"rms": normalized_rms(est, true), "labels": labels,
                 "errors": relative_errors(est, true).tolist()}
+        if all(p.get("std_error") for p in params):  # standardized errors, for coverage of the stated errors
+            out["z"] = ((est - true) / np.array([p["std_error"] for p in params], dtype=float)).tolist()
         if run.get("history"):
             out["rms_history"] = [normalized_rms(np.asarray(row, dtype=float), true) for row in run["history"]]
             out["rms_initial"] = out["rms_history"][0]

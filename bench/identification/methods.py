@@ -56,9 +56,11 @@ class Method:
 
 BUILTIN: dict[str, Method] = {m.name: m for m in (
     Method("least-squares", least_squares.identify,
-           {"samples": 8, "interval": 0.5, "integration": "auto", "weighting": "noise"},
+           {"estimator": "bias-compensated", "samples": None, "interval": 0.5, "integration": "auto",
+            "weighting": "noise"},
            "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
-           {"integration": least_squares.INTEGRATIONS, "weighting": least_squares.WEIGHTINGS}),
+           {"estimator": least_squares.ESTIMATORS, "integration": least_squares.INTEGRATIONS,
+            "weighting": least_squares.WEIGHTINGS}),
     Method("perturbation", perturbation.identify,
            {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False},
            "chapter 4: iterative frequency-domain perturbation from a postulated model", postulated=True),
