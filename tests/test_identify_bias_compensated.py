@@ -106,5 +106,5 @@ def test_nan_in_a_channel_is_named(frame, response, tmp_path):
         data[10] = np.nan
         f["channels/acceleration_2_x"][...] = data
     from structbench.identifier.errors import IdentificationError
-    with pytest.raises(IdentificationError, match="acceleration_2_x holds NaN"):
+    with pytest.raises(IdentificationError, match="acceleration_2_x is nan at sample 10"):
         identify([read_trace(path)], frame)
