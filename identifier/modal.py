@@ -13,7 +13,8 @@ Steps (each its own module):
    (:mod:`identifier.stabilisation`);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
-   mode that some replicate does not find again is a noise mode and dropped.
+   mode that more than one replicate does not find again is a noise mode and
+   dropped (a mode missed by one replicate is kept without stated errors).
 
 Assumptions: a linear time-invariant structure, the response either a free
 decay or stationary (unmeasured broadband excitation), white sensor noise;
@@ -86,7 +87,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
-    every jackknife replicate finds again (spurious noise modes do not)."""
+    all jackknife replicates but at most one find again (spurious noise modes
+    do not)."""
     records, channels, dt = sensor_records(traces, quantity)
     m = records[0].shape[0]
     p = block_rows or auto_block_rows(m)
@@ -109,9 +111,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     by_order = {pl.order: pl for pl in poles}
     shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
         else np.zeros((m, 0), complex)
-    omega_se, zeta_se = jackknife(cov, (p, q), U, [(tuple(sorted({n for n, _ in md.members})), md.omega,
+    omega_se, zeta_se, missed = jackknife(cov, (p, q), U, [(tuple(sorted({n for n, _ in md.members})), md.omega,
                                                shapes[:, k]) for k, md in enumerate(modes)])
-    kept = np.isfinite(omega_se) | (not drop_unrepeated)
+    kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
     omega = np.array([md.omega for md in modes])

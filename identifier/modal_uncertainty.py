@@ -14,7 +14,8 @@ Assumes the groups' noise contributions are nearly independent: contiguous
 segments longer than the response's correlation time (stationary records) or
 interleaved blocks longer than the lags (free decay). With few groups the
 estimate has ``G - 1`` degrees of freedom; a mode not found in some replicate
-gets NaN (no error stated).
+gets NaN (no error stated): in a free decay a mode that has died out within
+the first block of samples is seen by one group only.
 """
 from __future__ import annotations
 
@@ -54,13 +55,14 @@ def _match(poles: Poles, omega: float, shape: np.ndarray) -> tuple[float, float]
 
 
 def jackknife(cov: Covariances, rows: tuple[int, int], start: np.ndarray, targets: list[Target]
-              ) -> tuple[np.ndarray, np.ndarray]:
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard errors (k,) of omega (rad/s) and zeta of the target modes
-    (``rows`` block rows and columns; ``start`` the full data's leading singular vectors);
-    NaN for a mode missing from a replicate."""
+    (``rows`` block rows and columns; ``start`` the full data's leading
+    singular vectors), NaN for a mode missing from a replicate; and how many
+    replicates missed each mode (k,)."""
     if not targets:
-        return np.zeros(0), np.zeros(0)
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
     groups = cov.sums.shape[0]
     reps = np.stack([_replicate(cov, g, rows, start, targets) for g in range(groups)])
     se = np.sqrt((groups - 1) / groups * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
-    return se[:, 0], se[:, 1]
+    return se[:, 0], se[:, 1], np.sum(np.isnan(reps[:, :, 0]), axis=0)

@@ -73,11 +73,10 @@ def reference_channels(m: int, count: int) -> np.ndarray:
 
 def group_labels(n: int, groups: int, lags: int, decay: bool) -> np.ndarray:
     """Group index (n,) of every sample: contiguous segments, or for a free
-    decay interleaved blocks of ``4 * lags`` samples (at least 20 blocks per group
-    when the record allows)."""
+    decay interleaved blocks of ``lags`` samples (block b in group b mod groups)."""
     if not decay:
         return np.minimum(np.arange(n) * groups // n, groups - 1)
-    block = max(4 * lags, n // (20 * groups), 1)
+    block = max(lags, 1)
     return (np.arange(n) // block) % groups
 
 
