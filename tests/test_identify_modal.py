@@ -124,37 +124,63 @@ def test_damped_random_output_only(damped, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def membrane_traces(tmp_path_factory):
+def membrane_responses():
+    """Free responses of the membrane from 1 m/s at node 5 and at node 6, 100 s at 0.02 s."""
     membrane = load_model("ch5-membrane")
-    folder = tmp_path_factory.mktemp("membrane")
-    traces = []
+    n = membrane.n_dof
+    out = []
     for node in (5, 6):
-        n = membrane.n_dof
         x0 = np.zeros(2 * n)
         x0[n + membrane.dof_index(node, "w")] = 1.0
-        response = respond(membrane, np.zeros((5001, n)), 0.02, x0)
-        sensors = [("velocity", i, "w") for i, _ in membrane.dofs]
-        traces.append(read_trace(write_trace(folder / f"m{node}.h5", membrane, response, 0.02, sensors,
-                                             noise={"velocity": 0.02}, seed=node, test=f"node{node}")))
-    return membrane, traces
+        out.append(respond(membrane, np.zeros((5001, n)), 0.02, x0))
+    return membrane, out
 
 
-def test_membrane_one_record_reports_the_close_pair_once(membrane_traces):
-    membrane, traces = membrane_traces
-    lam = np.array(identify(traces[:1], membrane).omega) ** 2
-    near_pair = lam[np.abs(lam - 1.19135) < 0.01]
-    assert near_pair.size == 1  # one shape moves, one mode: no invented second one
-    assert near_pair[0] == pytest.approx(1.19135, rel=1e-3)
+def membrane_traces(folder, membrane, responses, noise):
+    sensors = [("velocity", i, "w") for i, _ in membrane.dofs]
+    return [read_trace(write_trace(folder / f"m{k}-{noise}.h5", membrane, response, 0.02, sensors,
+                                   noise={"velocity": noise}, seed=k, test=f"node{5 + k}"))
+            for k, response in enumerate(responses)]
 
 
-def test_membrane_two_records_resolve_the_pair(membrane_traces):
-    membrane, traces = membrane_traces
-    result = identify(traces, membrane)
-    exact = membrane.modes().omega[1:5]
-    w = pair(result.omega, exact)
-    assert w == pytest.approx(exact, rel=1e-3)
+def macs(result, exact_shapes, exact_omega):
+    """MAC of the identified mode nearest each exact one."""
+    w = np.asarray(result.omega)
+    shapes = np.array(result.mode_shapes).T[:, [int(np.argmin(np.abs(w - e))) for e in exact_omega]]
+    return np.sum(shapes * exact_shapes, 0) ** 2 / np.sum(shapes**2, 0) / np.sum(exact_shapes**2, 0)
+
+
+def test_membrane_noise_free_every_mode_exact(membrane_responses, tmp_path):
+    membrane, responses = membrane_responses
+    modes = membrane.modes()
+    result = identify(membrane_traces(tmp_path, membrane, responses, 0.0), membrane)
+    assert pair(result.omega, modes.omega[1:6]) == pytest.approx(modes.omega[1:6], rel=1e-7)
+    assert pair(result.omega, modes.omega[1:5]) ** 2 == pytest.approx(MEMBRANE_LAMBDA, rel=2e-4)
+
+
+def test_membrane_noisy_single_record_reports_each_close_pair_once(membrane_responses, tmp_path):
+    """One record, 2 % noise: a pair that the record moves as one shape is
+    reported once, at the pair's frequency (within 0.1 %), never invented twice."""
+    membrane, responses = membrane_responses
+    exact = membrane.modes().omega
+    w = np.array(identify(membrane_traces(tmp_path, membrane, responses[:1], 0.02), membrane).omega)
+    for low, high in ((exact[1], exact[2]), (exact[4], exact[5])):
+        near = w[np.abs(w - (low + high) / 2) < 0.01 * high]
+        assert near.size == 1
+        assert low * (1 - 1e-3) < near[0] < high * (1 + 1e-3)
+
+
+def test_membrane_noisy_two_records_resolve_the_wider_pair(membrane_responses, tmp_path):
+    """Both records, 2 % noise: the pair 0.08 % apart (omega 2.4175, 2.4196)
+    comes out as two modes within 0.1 % with MAC >= 0.99 (the pair 0.009 %
+    apart stays one mode at this noise: see benchmarks/modal_accuracy.py)."""
+    membrane, responses = membrane_responses
+    modes = membrane.modes()
+    result = identify(membrane_traces(tmp_path, membrane, responses, 0.02), membrane)
+    w = pair(result.omega, modes.omega[4:6])
     assert w[0] != w[1]
-    assert (w**2) == pytest.approx(MEMBRANE_LAMBDA, rel=2e-3)
+    assert w == pytest.approx(modes.omega[4:6], rel=1e-3)
+    assert macs(result, modes.shapes[:, 4:6], modes.omega[4:6]).min() >= 0.99
 
 
 def test_bad_input_is_named(beam, tmp_path):
