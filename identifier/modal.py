@@ -30,6 +30,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from structbench.models import Model
 
@@ -104,15 +105,16 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                                   f"(need at least 20 x (rows + columns) = {20 * (p + q)}); give fewer "
                                   f"block rows or a longer record", field="block_rows")
     cov = covariances(records, dt, p + q - 1, r, segments)
-    U = leading_svd(hankel(cov.mean(), p, q), order_cap)
-    space = subspace(U, m)
-    poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
-    modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction))
-    by_order = {pl.order: pl for pl in poles}
-    shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
-        else np.zeros((m, 0), complex)
-    omega_se, zeta_se, missed = jackknife(cov, (p, q), U, [(tuple(sorted({n for n, _ in md.members})), md.omega,
-                                               shapes[:, k]) for k, md in enumerate(modes)])
+    with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
+        U = leading_svd(hankel(cov.mean(), p, q), order_cap)
+        space = subspace(U, m)
+        poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
+        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction))
+        by_order = {pl.order: pl for pl in poles}
+        shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
+            else np.zeros((m, 0), complex)
+        omega_se, zeta_se, missed = jackknife(cov, (p, q), U, [(_spread(md), md.omega, shapes[:, k])
+                                                               for k, md in enumerate(modes)])
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
@@ -131,6 +133,13 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "references": r, "segments": segments, "max_order": order_cap,
                  "orders": [md.order for md in modes], "support": [md.support for md in modes],
                  "stabilisation": _diagram(poles, flags)})
+
+
+def _spread(mode, count: int = 5) -> tuple[int, ...]:
+    """Up to ``count`` model orders spread over those of a mode's stable poles
+    (the jackknife replicates repeat the median over these)."""
+    orders = sorted({n for n, _ in mode.members})
+    return tuple(orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int)))
 
 
 def _diagram(poles: list[Poles], flags: list[np.ndarray]) -> dict[str, list]:

@@ -3,8 +3,8 @@ delete-one-group jackknife.
 
 The covariance sums are kept per sample group (``G`` groups,
 :mod:`identifier.ssi_covariance`). Replicate ``g`` repeats the identification
-from the covariances of every group but ``g`` at the model orders that
-support each mode, picks at each the pole nearest the mode (frequency within
+from the covariances of every group but ``g`` at up to five model orders
+spread over those that support each mode, picks at each the pole nearest the mode (frequency within
 5 %, MAC > 0.8) and takes the medians, as the full-data estimate does. With
 ``theta_g`` the replicates and ``theta_.`` their mean,
 
