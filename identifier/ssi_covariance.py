@@ -5,22 +5,22 @@ For outputs ``y_k`` (m,) and reference outputs ``y_ref,k`` (r,) of a linear
 system ``x_{k+1} = A x_k + w_k``, ``y_k = C x_k + v_k`` driven by white noise
 (operational data) or left to itself (free decay), the lagged products
 
-    R_l = sum_k y_{k+l} y_ref,k^T / sum_k 1,     l = 1, 2, ..., 2p
+    R_l = sum_k y_{k+l} y_ref,k^T / sum_k 1,     l = 1, 2, ..., L = p + q - 1
 
 satisfy ``R_l = C A^(l-1) G``: for free decay with ``G = A sum_k x_k x_k^T
 C_ref^T / n`` and for stationary data with ``G = E[x_{k+1} y_ref,k^T]``.
 White sensor noise ``v`` enters only ``R_0``, which is never used, so it
 adds variance but no bias. The block Hankel matrix
 
-    H = [[R_1, R_2, ..., R_p], [R_2, ..., R_{p+1}], ..., [R_p, ..., R_{2p-1}]]
+    H = [[R_1, R_2, ..., R_q], [R_2, ..., R_{q+1}], ..., [R_p, ..., R_{p+q-1}]]
 
-(p m x p r) factors as ``O Gamma`` with the observability matrix ``O = [C; C A;
+(p m x q r) factors as ``O Gamma`` with the observability matrix ``O = [C; C A;
 ...; C A^(p-1)]``, which is what :mod:`identifier.ssi_poles` extracts.
 
 The sums are kept per group of samples (the sample index ``k`` of the
 reference), so that the identification can be repeated with one group left
 out (jackknife, :mod:`identifier.modal_uncertainty`): ``groups`` contiguous
-segments for stationary records, or interleaved blocks of ``block`` samples
+segments for stationary records, or interleaved blocks of L samples
 (each group then spans the whole record) for free decays, whose signal is
 concentrated at the start. Channels are divided by their RMS first so that
 sensors of different size weigh alike; shapes are scaled back by the caller.
@@ -38,10 +38,10 @@ import numpy as np
 class Covariances:
     """Lagged output covariance sums per sample group.
 
-    ``sums`` (g, 2p, m, r): ``sum_{k in group} y_{k+l} y_ref,k^T`` for l = 1..2p
-    (standardised channels; ``k < n - 2p``, one set of ``k`` for every lag, so
+    ``sums`` (g, L, m, r): ``sum_{k in group} y_{k+l} y_ref,k^T`` for l = 1..L
+    (standardised channels; ``k < n - L``, one set of ``k`` for every lag, so
     that the shift structure holds exactly for a free decay too); ``counts``
-    (g, 2p) the number of terms;
+    (g, L) the number of terms;
     ``scale`` (m,) the channel RMS used to standardise; ``references``
     (r,) the reference channel indices; ``dt`` s.
     """
@@ -52,12 +52,8 @@ class Covariances:
     references: np.ndarray
     dt: float
 
-    @property
-    def lags(self) -> int:
-        return self.sums.shape[1]
-
     def mean(self, leave_out: int | None = None) -> np.ndarray:
-        """``R_l`` (2p, m, r) from every group, or from all but group ``leave_out``."""
+        """``R_l`` (L, m, r) from every group, or from all but group ``leave_out``."""
         keep = np.ones(self.sums.shape[0], dtype=bool)
         if leave_out is not None:
             keep[leave_out] = False
