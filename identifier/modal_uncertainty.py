@@ -23,7 +23,6 @@ import numpy as np
 
 from .ssi_covariance import Covariances, hankel
 from .ssi_poles import Poles, leading_svd, mac_matrix, poles_at, subspace
-from .stabilisation import in_span
 
 Target = tuple[tuple[int, ...], float, np.ndarray]  # (model orders, omega rad/s, complex shape (m,))
 
@@ -46,17 +45,13 @@ def _replicate(cov: Covariances, group: int, rows: tuple[int, int], start: np.nd
 
 
 def _match(poles: Poles, omega: float, shape: np.ndarray) -> tuple[float, float] | None:
-    """(omega, zeta) of the pole within 5 % of ``omega`` with the best MAC (> 0.8)
-    to ``shape``, or, when ``shape`` lies in the span of several such poles' shapes
-    (a repeated root), of the one with the best MAC."""
+    """(omega, zeta) of the pole within 5 % of ``omega`` with the best MAC (> 0.8) to ``shape``."""
     near = np.abs(poles.omega - omega) / omega < 0.05
     if not near.any():
         return None
     score = np.where(near, mac_matrix(shape[:, None], poles.shapes)[0], -1.0)
     j = int(np.argmax(score))
-    if score[j] > 0.8 or (near.sum() >= 2 and in_span(shape, poles.shapes[:, near]) > 0.8):
-        return poles.omega[j], poles.zeta[j]  # the second case: a repeated root, its shapes turned in their plane
-    return None
+    return (poles.omega[j], poles.zeta[j]) if score[j] > 0.8 else None
 
 
 def jackknife(cov: Covariances, rows: tuple[int, int], start: np.ndarray, targets: list[Target]

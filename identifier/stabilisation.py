@@ -9,12 +9,7 @@ a pole with
 
 and its damping ratio is physically plausible, ``-0.02 < zeta < zeta_max``
 (a small negative margin: undamped structures give zeta ~ 0 of either sign).
-A repeated (or nearly repeated) root seen by several records gives two poles
-whose shapes turn freely within their common plane from order to order: such a
-pole is also stable when its shape lies in the span of the previous order's
-poles of that frequency, and joins the cluster of that frequency it resembles
-most when its shape lies in the span of their shapes. Stable poles are
-grouped into modes: poles within ``freq_tol`` of a cluster's
+Stable poles are grouped into modes: poles within ``freq_tol`` of a cluster's
 mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
 one shape never yields two modes. A cluster is a mode when its poles come
@@ -71,10 +66,10 @@ def stable_flags(poles: list[Poles], criteria: Criteria) -> list[np.ndarray]:
         if prev.omega.size and cur.omega.size:
             dfreq = np.abs(cur.omega[:, None] - prev.omega[None, :]) / cur.omega[:, None]
             dzeta = np.abs(cur.zeta[:, None] - prev.zeta[None, :])
-            near = (dfreq < criteria.freq_tol) & (dzeta < criteria.zeta_tol * (np.abs(cur.zeta)[:, None] + 0.002))
-            ok = (near & (mac_matrix(cur.shapes, prev.shapes) > criteria.mac_min)).any(axis=1)
-            for j in np.flatnonzero(~ok & (near.sum(axis=1) >= 2)):
-                ok[j] = in_span(cur.shapes[:, j], prev.shapes[:, near[j]]) > criteria.mac_min
+            close = ((dfreq < criteria.freq_tol)
+                     & (dzeta < criteria.zeta_tol * (np.abs(cur.zeta)[:, None] + 0.002))
+                     & (mac_matrix(cur.shapes, prev.shapes) > criteria.mac_min))
+            ok = close.any(axis=1)
         flags.append(ok & (cur.zeta > -0.02) & (cur.zeta < criteria.zeta_max))
     return flags
 
@@ -95,8 +90,6 @@ def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -
                 value = abs(np.vdot(shapes[c], phi)) ** 2  # both of unit norm
                 if value > best_mac:
                     best, best_mac = c, value
-        if best < 0:  # a repeated root: its shape lies in the span of two clusters' shapes
-            best = _span_cluster(phi, w, clusters, sums, shapes, criteria)
         if best < 0:
             clusters.append([(i, j)])
             sums.append(w)
@@ -105,23 +98,6 @@ def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -
             clusters[best].append((i, j))
             sums[best] += w
     return clusters
-
-
-def in_span(phi: np.ndarray, basis: np.ndarray) -> float:
-    """Share of ``phi``'s squared norm in the span of the columns of ``basis`` (m, k)."""
-    q = np.linalg.qr(basis)[0]
-    return float(np.linalg.norm(q.conj().T @ phi) ** 2 / np.linalg.norm(phi) ** 2)
-
-
-def _span_cluster(phi: np.ndarray, w: float, clusters: list, sums: list[float], shapes: list[np.ndarray],
-                  criteria: Criteria) -> int:
-    """Index of the cluster (of two or more within ``freq_tol`` whose shapes span
-    ``phi``) with the best MAC to ``phi``, or -1."""
-    near = [c for c, (members, total) in enumerate(zip(clusters, sums))
-            if abs(w - total / len(members)) < criteria.freq_tol * w]
-    if len(near) < 2 or in_span(phi, np.column_stack([shapes[c] for c in near])) <= criteria.mac_min:
-        return -1
-    return max(near, key=lambda c: abs(np.vdot(shapes[c], phi)))
 
 
 def select_modes(poles: list[Poles], criteria: Criteria) -> tuple[list[Mode], list[np.ndarray]]:
