@@ -43,7 +43,11 @@ class Identification:
     values per iteration, row 0 the starting values, same order as
     ``parameters``) and ``misfit_history``; the Rayleigh method fills ``omega``
     (rad/s), ``eigenvalues`` (omega^2, rad^2/s^2), ``mode_shapes`` (one list per
-    mode over ``sensors``). ``details`` holds method-specific diagnostics.
+    mode over ``sensors``). The modal method also fills ``damping`` (damping
+    ratios), ``omega_std`` (rad/s) and ``damping_std`` (standard errors, NaN
+    where not estimated), ``mpc`` (modal phase collinearity, 1 = real mode)
+    and ``mode_shapes_complex`` (per mode, per sensor ``[re, im]``, unit norm).
+    ``details`` holds method-specific diagnostics.
     """
 
     method: str
@@ -60,6 +64,11 @@ class Identification:
     eigenvalues: list[float] = field(default_factory=list)
     mode_shapes: list[list[float]] = field(default_factory=list)
     sensors: list[str] = field(default_factory=list)
+    damping: list[float] = field(default_factory=list)
+    omega_std: list[float] = field(default_factory=list)
+    damping_std: list[float] = field(default_factory=list)
+    mpc: list[float] = field(default_factory=list)
+    mode_shapes_complex: list[list[list[float]]] = field(default_factory=list)
     details: dict[str, Any] = field(default_factory=dict)
 
     def values(self) -> np.ndarray:

@@ -154,7 +154,8 @@ def test_structure_from_a_toml_model(tmp_path):
 
 @pytest.mark.parametrize("name, tests, channels, samples", [
     ("ch3", 2, 97, {4001}), ("ch4-case1", 24, 12, {8001}), ("ch4-case2", 24, 1, {8001}),
-    ("ch5-beam", 2, 20, {10001, 120001}), ("ch5-membrane", 2, 32, {10001})])
+    ("ch5-beam", 3, 20, {10001, 120001}), ("ch5-membrane", 2, 32, {10001}),
+    ("ch5-damped", 2, 30, {20001, 72001})])
 def test_dissertation_campaigns_load(name, tests, channels, samples):
     campaign = load_campaign(CAMPAIGNS / f"{name}.toml")
     assert len(campaign.tests) == tests

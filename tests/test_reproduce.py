@@ -54,13 +54,29 @@ def test_beyond_the_dissertation(reproduced):
     assert {"mass", "stiffness"} <= set(rows["ch3/least-squares-all"]["kinds"])
 
 
+def test_beyond_the_dissertation_rows(reproduced):
+    """The modal method beside the Rayleigh quotient on the same traces (3 repetitions)."""
+    _, s = reproduced
+    b = s["ch5-beyond"]
+    beam = b["ch5-beam-noisy/modal"]["freq_error_pct"]
+    assert max(abs(e) for e in beam[:2]) < 0.1 and max(abs(e) for e in beam[2:10]) < 0.03  # 20 seeds: benchmarks/
+    assert min(b["ch5-beam-noisy/modal"]["mac"][:10]) > 0.99
+    assert max(abs(e) for e in b["ch5-beam-noisy/rayleigh"]["freq_error_pct"][6:10]) > 10  # the aliasing
+    assert max(abs(e) for e in b["ch5-damped-impulse/modal"]["freq_error_pct"][:10]) < 0.1
+    assert max(abs(e) for e in b["ch5-damped-impulse/modal"]["damping_error_pct"][:10]) < 10
+    assert min(b["ch5-damped-impulse/rayleigh"]["freq_error_pct"][1:10]) < -40  # the quotient's noise bias
+    assert b["ch5-damped-random/modal"]["found_fraction"][:10] == [1.0] * 10
+    assert max(abs(e) for e in b["ch5-membrane-joint/modal"]["freq_error_pct"]) < 1e-3  # noise-free records
+
+
 def test_report_and_figures(reproduced):
     out, _ = reproduced
     report = (out / "report.md").read_text()
     assert "| ch3-m8 normalized RMS | 0.0183" in report
     assert "## Beyond the dissertation" in report
+    assert "(ch5-damped/results/modal-random-stabilisation-00.png)" in report
     for png in ("ch3-parameters-m8.png", "ch3-coverage.png", "ch4-rms-history.png", "ch5-beam-modes.png",
-                "ch5-membrane-modes-joint.png"):
+                "ch5-membrane-modes-joint.png", "ch5-beam-modes-modal.png"):
         assert (out / png).stat().st_size > 10_000
         assert f"({png})" in report
 

@@ -15,7 +15,7 @@ from structbench import api
 
 from .progress import bar, interactive
 
-HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh) from a campaign's traces"
+HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh, modal) from a campaign's traces"
 
 
 def _default(method: str, option: str) -> Any:
@@ -66,6 +66,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="taper of the time averages (default hann)")
     group.add_argument("--admissible", choices=["cosine"], help="admissible functions with FE interpolation")
     group.add_argument("--functions", type=int, metavar="K", help="number of admissible functions (default: sensors)")
+    md = "modal"
+    group = parser.add_argument_group(md)
+    group.add_argument("--quantity", choices=known[md].choices["quantity"],
+                       help="sensors used: displacement, else velocity, else acceleration (default auto)")
+    group.add_argument("--block-rows", type=int, metavar="P",
+                       help="block rows of the covariance Hankel matrix (default 200, fewer for many channels)")
+    group.add_argument("--max-order", type=int, metavar="N",
+                       help=f"highest model order of the stabilisation diagram (default {_default(md, 'max_order')})")
+    group.add_argument("--references", type=int, metavar="R",
+                       help=f"reference channels (default {_default(md, 'references')})")
+    group.add_argument("--segments", type=int, metavar="G",
+                       help=f"sample groups of the jackknife errors (default {_default(md, 'segments')})")
+    group.add_argument("--min-fraction", type=float, metavar="F",
+                       help=f"share of the orders a mode must be stable in (default {_default(md, 'min_fraction')})")
 
 
 def generic(items: list[str]) -> dict[str, Any]:
@@ -100,8 +114,11 @@ def table(run: dict[str, Any]) -> list[str]:
         err = f" +- {p['std_error']:.3g}" if p.get("std_error") is not None else ""
         start = f"   (from {p['initial']:.6g})" if p.get("initial") is not None else ""
         lines.append(f"  {p['label']:16s} {p['value']:14.6g}{err:14s} {p['unit']}{start}")
+    damping, se = run.get("damping") or [], run.get("omega_std") or []
     for i, (w, lam) in enumerate(zip(run.get("omega", []), run.get("eigenvalues", [])), start=1):
-        lines.append(f"  mode {i:2d}  omega = {w:10.6f} rad/s   omega^2 = {lam:10.6f}")
+        extra = (f"   +- {se[i - 1]:.2g}   zeta = {damping[i - 1]:8.5f} +- {run['damping_std'][i - 1]:.2g}"
+                 f"   MPC {run['mpc'][i - 1]:.3f}" if damping else "")
+        lines.append(f"  mode {i:2d}  omega = {w:10.6f} rad/s   omega^2 = {lam:10.6f}{extra}")
     return lines
 
 

@@ -3,8 +3,11 @@
 Keys (all optional): ``rms_max`` and ``rms_p90_max`` (normalized RMS parameter
 error, median and 90th percentile over runs), ``freq_error_pct_max`` (largest
 absolute median frequency error, %), ``mac_min`` (smallest median MAC),
-``improved_fraction_min`` (share of runs better than the starting model) and
-``modes`` (1-based modes the frequency and MAC gates look at; default all).
+``improved_fraction_min`` (share of runs better than the starting model),
+``damping_error_pct_max`` (largest absolute median damping-ratio error, % of
+the true ratio), ``coverage_min`` and ``coverage_max`` (the share of runs
+whose 95 % intervals of frequency and damping hold the truth, smallest and
+largest over the modes) and ``modes`` (1-based modes the frequency and MAC gates look at; default all).
 Top-level keys apply to every results file; a sub-table ``[check.<results
 file stem>]`` (e.g. ``[check.rayleigh]``) overrides them for that file.
 """
@@ -20,7 +23,8 @@ from structbench.models.errors import UserError
 
 from .scores import score_campaign
 
-GATES = {"rms_max", "rms_p90_max", "freq_error_pct_max", "mac_min", "improved_fraction_min", "modes"}
+GATES = {"rms_max", "rms_p90_max", "freq_error_pct_max", "mac_min", "improved_fraction_min", "modes",
+         "damping_error_pct_max", "coverage_min", "coverage_max"}
 
 
 def _modes(values: list[float], modes: list[int] | None) -> np.ndarray:
@@ -39,6 +43,12 @@ def _measures(summary: dict[str, Any], modes: list[int] | None) -> dict[str, flo
         out["freq_error_pct_max"] = float(np.abs(_modes(summary["freq_error_pct_median"], modes)).max())
     if summary.get("mac_median"):
         out["mac_min"] = float(_modes(summary["mac_median"], modes).min())
+    if summary.get("damping_error_pct_median"):
+        out["damping_error_pct_max"] = float(np.abs(_modes(summary["damping_error_pct_median"], modes)).max())
+    if summary.get("omega_coverage"):
+        both = np.concatenate([_modes(summary["omega_coverage"], modes), _modes(summary["zeta_coverage"], modes)])
+        out["coverage_min"] = float(both.min())
+        out["coverage_max"] = float(both.max())
     return out
 
 

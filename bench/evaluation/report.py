@@ -10,7 +10,7 @@ import numpy as np
 from structbench.identifier.results import read_results
 from structbench.models import load_model
 
-from . import plots
+from . import beyond_modal, plots
 from .reproduce import PUBLISHED, STEPS
 
 UNITS = {"mass": "kg/m", "stiffness": "N/m"}
@@ -59,6 +59,22 @@ def _shapes(folder: Path, stem: str) -> tuple[np.ndarray, np.ndarray]:
     pick = [rows[(int(c.split("_")[1]), c.split("_", 2)[2])] for c in run.sensors]
     ident = np.array(run.mode_shapes).T
     return ident, np.array(truth["mode_shapes"])[pick][:, :ident.shape[1]]
+
+
+def _diagrams(out: Path) -> list[Path]:
+    """The first stabilisation diagram of every modal results file."""
+    return sorted(p for p in out.glob("*/results/modal-*-stabilisation-00.png"))
+
+
+def modal_figures(out: Path) -> list[Path]:
+    """Identified (SSI-cov) vs true beam shapes of the noisy ch5 record, modes 1-10."""
+    beam = load_model("ch5-simply-supported-beam")
+    ident, true = _shapes(out / "ch5-beam", "modal-noisy")
+    x_fine = np.linspace(0, 10, 400)
+    return [plots.beam_mode_shapes(out / "ch5-beam-modes-modal.png",
+                                   "ch5 beam, 2 % noise: modal method (o) vs true mode shapes, modes 1-10",
+                                   beam.points, ident[:, :10], true[:, :10], x_fine,
+                                   beam.shape_function(x_fine)[:, :10])]
 
 
 def ch5_figures(out: Path) -> list[Path]:
@@ -165,7 +181,8 @@ def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path
 
 def write_report(out: Path, summary: dict[str, Any], scores: dict[str, Any]) -> Path:
     """Write ``out/report.md`` and its figures; returns the report's path."""
-    figures = [ch3_figure(out, "m4"), ch3_figure(out, "m8"), ch4_figure(out, scores), *ch5_figures(out)]
+    figures = [ch3_figure(out, "m4"), ch3_figure(out, "m8"), ch4_figure(out, scores), *ch5_figures(out),
+               *modal_figures(out)]
     lines = ["# structbench: the dissertation reproduced through FMUs", "",
              "Every figure below comes from FMUs driven by the harness, trace files and the",
              "identifiers; medians and spreads are over Monte Carlo noise realisations.",
@@ -178,7 +195,10 @@ def write_report(out: Path, summary: dict[str, Any], scores: dict[str, Any]) -> 
               if s.tag in ("m4", "m8", "case1", "case2", "case1-noisy", "case2-noisy", "hann", "joint")]
     beyond_lines, coverage_figure = _beyond_section(out, summary)
     figures.append(coverage_figure)
-    lines += ["", *_variants_section(summary), "", *beyond_lines, "", "## Figures", ""]
+    lines += ["", *_variants_section(summary), "", *beyond_lines, "", *beyond_modal.section(summary["ch5-beyond"]), ""]
+    lines += ["Stabilisation diagrams of the modal method (first run of each):", ""]
+    lines += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in _diagrams(out)]
+    lines += ["", "## Figures", ""]
     lines += [f"![{f.stem}]({f.name})" for f in figures]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")

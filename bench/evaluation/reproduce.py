@@ -24,12 +24,13 @@ from structbench.harness.campaign import Campaign, load_campaign
 from structbench.harness.run import run_campaign
 from structbench.identification.runs import identify_folder
 
-from .beyond import beyond
+from . import beyond_modal
+from .beyond_least_squares import beyond
 from .metrics import frequency_error_pct
 from .scores import score_campaign
 
 CAMPAIGNS = Path(str(resources.files("structbench.campaigns")))
-NAMES = ("ch3", "ch3-damped", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membrane")
+NAMES = ("ch3", "ch3-damped", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membrane", "ch5-damped")
 
 # The dissertation's figures (shared/reference/dissertation-cases.md).
 PUBLISHED: dict[str, dict[str, Any]] = {
@@ -67,7 +68,7 @@ class Step:
         return f"{self.method}-{self.tag}"
 
 
-LS, PT, RY = "least-squares", "perturbation", "rayleigh"
+LS, PT, RY, MD = "least-squares", "perturbation", "rayleigh", "modal"
 STEPS: tuple[Step, ...] = (
     Step('ch3', 'm4', LS, 'measured u, v; noise-weighted least squares (the headline ch3-m4)', groups=('harmonic',), options={'estimator': 'ols', 'interval': 0.5, 'samples': 4}),
     Step('ch3', 'm8', LS, 'measured u, v; noise-weighted least squares (the headline ch3-m8)', groups=('harmonic',), options={'estimator': 'ols', 'interval': 0.5, 'samples': 8}),
@@ -91,6 +92,14 @@ STEPS: tuple[Step, ...] = (
     Step('ch5-beam', 'long-plain', RY, 'T = 1200 s, plain correlations', groups=('impulse-long',), options={'window': 'rectangular'}),
     Step('ch5-membrane', 'single', RY, "one record, 1 m/s at node 5, cosine admissible functions (the dissertation's set-up)", groups=('initial-velocity',), options={'admissible': 'cosine'}),
     Step('ch5-membrane', 'joint', RY, 'records started at nodes 5 and 6 together, cosine admissible functions (the headline; not in the dissertation)', joint=True, options={'admissible': 'cosine'}),
+    # beyond the dissertation (bench/evaluation/beyond_modal.py): the modal method beside the Rayleigh quotient
+    Step('ch5-beam', 'noisy', RY, 'T = 100 s, 2 % noise on every sensor, Hann-tapered correlations', groups=('impulse-noisy',)),
+    Step('ch5-beam', 'noisy', MD, 'T = 100 s, 2 % noise on every sensor, SSI-cov', groups=('impulse-noisy',)),
+    Step('ch5-membrane', 'single', MD, 'one record, 1 m/s at node 5, SSI-cov', groups=('initial-velocity',)),
+    Step('ch5-membrane', 'joint', MD, 'records started at nodes 5 and 6 together, SSI-cov', joint=True),
+    Step('ch5-damped', 'impulse', RY, 'damped beam, impulse, 2 % noise; Hann-tapered correlations', groups=('impulse',)),
+    Step('ch5-damped', 'impulse', MD, 'damped beam, impulse, 2 % noise; SSI-cov on the velocities', groups=('impulse',), options={'quantity': 'velocity'}),
+    Step('ch5-damped', 'random', MD, 'damped beam, 1 h of unmeasured random force, 2 % noise; SSI-cov on the velocities', groups=('random',), options={'quantity': 'velocity'}),
 )
 
 
@@ -169,6 +178,7 @@ def summarize(scores: dict[str, dict[str, Any]]) -> dict[str, Any]:
     mem = scores["ch5-membrane"]
     out["ch5-membrane"] = _modes(mem["rayleigh-joint"]["summary"], 5, squared=True) | {
         "variants": {"single": _modes(mem["rayleigh-single"]["summary"], 5, squared=True)}}
+    out["ch5-beyond"] = beyond_modal.summarize(scores)
     return out
 
 

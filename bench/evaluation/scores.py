@@ -1,7 +1,9 @@
 """Scoring of a campaign folder: ``results/*.json`` against ``truth.json``.
 
 Per run: normalized RMS parameter error, per-parameter relative errors,
-natural-frequency errors (%) and the MAC of mode shapes; per results file a
+natural-frequency errors (%) and the MAC of mode shapes (modal results with
+damping: modes paired with the true ones, damping errors and the coverage of
+the stated errors, :mod:`modal_scores`); per results file a
 summary over the Monte Carlo runs (median and 10-90 % spread).
 """
 from __future__ import annotations
@@ -16,6 +18,7 @@ from structbench.models.errors import UserError
 
 from .metrics import frequency_error_pct, mac, normalized_rms, relative_errors
 from .truth_checks import read_truth
+from .modal_scores import modal_scores, modal_summary
 
 
 def load_truth(folder: Path) -> dict[str, Any]:
@@ -39,6 +42,8 @@ def _sensor_dof(channel: str) -> tuple[int, str]:
 
 
 def _mode_scores(run: dict[str, Any], truth: dict[str, Any]) -> dict[str, Any]:
+    if run.get("damping"):  # modal results: modes paired with the truth's (modal_scores.py)
+        return modal_scores(run, truth)
     omega = np.asarray(run.get("omega") or [], dtype=float)
     true_omega = np.asarray(truth.get("omega") or [], dtype=float)
     n = min(omega.size, true_omega.size)
@@ -92,6 +97,8 @@ def summarize(runs: list[dict[str, Any]]) -> dict[str, Any]:
         out["rms_initial"] = _spread([r["rms_initial"] for r in runs])
         out["improved_fraction"] = float(np.mean([r["rms"] < r["rms_initial"] for r in runs]))
         out["iterations"] = [r["iterations"] for r in runs]
+    if runs[0].get("paired"):
+        return out | modal_summary(runs)
     n = min(len(r["freq_error_pct"]) for r in runs)
     if n:
         out["omega_median"] = np.median([r["omega"][:n] for r in runs], axis=0).tolist()

@@ -9,6 +9,7 @@ from structbench.fmus.spec import parameter_names
 from structbench.models import ModalModel, Model
 
 from .campaign import Campaign
+from .damping import damping_ratios
 
 TRUTH_FORMAT = "structbench-truth"
 
@@ -33,7 +34,8 @@ def sensor_dofs(campaign: Campaign) -> list[tuple[int, str]]:
 
 def truth(campaign: Campaign) -> dict[str, Any] | None:
     """The content of ``truth.json``: true parameters and modal data
-    (``omega`` rad/s ascending, ``lambda`` = omega^2, mass-normalised
+    (``omega`` rad/s ascending, ``zeta`` damping ratios (NaN for rigid-body or
+    overdamped modes), ``lambda`` = omega^2, mass-normalised
     ``mode_shapes`` (n_sensor_dofs, n_modes) at ``sensor_dofs``, and
     ``mode_shapes_all`` at all free ``dofs``). External FMUs: the campaign's
     ``[truth]`` table, or None."""
@@ -50,6 +52,7 @@ def truth(campaign: Campaign) -> dict[str, Any] | None:
         "unknown": list(getattr(model, "unknown", ("frequency", "damping ratio"))),
         "parameters": _parameter_table(model),
         "omega": modes.omega.tolist(),
+        "zeta": damping_ratios(model, modes.omega).tolist(),
         "lambda": modes.lam.tolist(),
         "dofs": [list(d) for d in model.dofs],
         "sensor_dofs": [list(model.dofs[i]) for i in at],

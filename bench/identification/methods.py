@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any
 
-from structbench.identifier import least_squares, perturbation, rayleigh
+from structbench.identifier import least_squares, modal, perturbation, rayleigh
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.results import Identification
 
@@ -69,6 +69,11 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            "chapter 5: modes from free response by a pseudo-Rayleigh quotient",
            {"variant": rayleigh.VARIANTS, "window": rayleigh.WINDOWS, "admissible": (None, "cosine")},
            model="optional"),
+    Method("modal", modal.identify,
+           {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
+            "min_fraction": 0.3},
+           "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
+           {"quantity": modal.QUANTITIES}, model="optional"),
 )}
 
 

@@ -6,7 +6,8 @@ stepped sine's frequencies, say) with the same repetition index are
 identified together; ``joint`` puts the selected groups of one repetition
 together (two impulse tests averaged by the Rayleigh method, for instance).
 The runs go to ``CAMPAIGN_DIR/results/<method>[-<tag>].json``
-(docs/results-format.md).
+(docs/results-format.md), with a stabilisation diagram PNG per run for the
+modal method.
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from structbench.identifier.results import Identification, result_path, results_
 from structbench.identifier.traces import Trace, read_traces
 from structbench.models import STRUCTURES, Model, ModelError, load_model
 
+from .diagrams import write_diagrams
 from .methods import Method, method
 
 
@@ -91,4 +93,6 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
                                 model or (resolved.name if resolved is not None else traces[0].structure),
                                 {"group": list(groups) if groups else None,
                                  "test": list(tests) if tests else None, "joint": joint} | settings)
-    return document, write_results(result_path(folder, chosen.name, tag), document)
+    path = write_results(result_path(folder, chosen.name, tag), document)
+    write_diagrams(document, path)
+    return document, path

@@ -1,0 +1,136 @@
+"""Stabilisation diagram and automatic mode selection.
+
+A pole of order ``n`` is *stable* when the previous order (``n - step``) has
+a pole with
+
+    |omega_n - omega_{n-1}| / omega_n < freq_tol,
+    |zeta_n - zeta_{n-1}| < zeta_tol (|zeta_n| + 0.002),
+    MAC(phi_n, phi_{n-1}) > mac_min,
+
+and its damping ratio is physically plausible, ``-0.02 < zeta < zeta_max``
+(a small negative margin: undamped structures give zeta ~ 0 of either sign).
+Stable poles are grouped into modes: poles within ``freq_tol`` of a cluster's
+mean frequency and with MAC above ``mac_min`` to its shape join it, so
+that two modes of nearly equal frequency but different shapes stay apart and
+one shape never yields two modes. A cluster is a mode when its poles come
+from at least ``min_fraction`` of the orders; its frequency and damping ratio
+are the medians over its poles, its shape that of the pole nearest the median
+frequency. Clusters closer than ``freq_tol`` with shapes
+of MAC above ``mac_min`` are one mode (the larger cluster is kept).
+Fails when a mode is stable in too few orders (very weak or very close to
+a stronger mode): it is then not reported.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .ssi_poles import Poles, mac_matrix
+
+
+@dataclass(frozen=True)
+class Criteria:
+    """Stabilisation tolerances (see the module docstring)."""
+
+    freq_tol: float = 0.01
+    zeta_tol: float = 0.1
+    mac_min: float = 0.95
+    zeta_max: float = 0.2
+    min_fraction: float = 0.3
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One selected mode: its representative pole (order, index in that
+    order's :class:`Poles`), the stable poles that support it ((order, index)
+    pairs) and its estimates, the medians over them: ``omega`` rad/s, ``zeta``."""
+
+    order: int
+    index: int
+    members: tuple[tuple[int, int], ...]
+    omega: float
+    zeta: float
+
+    @property
+    def support(self) -> int:
+        return len(self.members)
+
+
+def stable_flags(poles: list[Poles], criteria: Criteria) -> list[np.ndarray]:
+    """Per order a boolean array (k,) marking the stable poles (the lowest
+    order has none)."""
+    flags = [np.zeros(poles[0].omega.size, dtype=bool)]
+    for prev, cur in zip(poles, poles[1:]):
+        ok = np.zeros(cur.omega.size, dtype=bool)
+        if prev.omega.size and cur.omega.size:
+            dfreq = np.abs(cur.omega[:, None] - prev.omega[None, :]) / cur.omega[:, None]
+            dzeta = np.abs(cur.zeta[:, None] - prev.zeta[None, :])
+            close = ((dfreq < criteria.freq_tol)
+                     & (dzeta < criteria.zeta_tol * (np.abs(cur.zeta)[:, None] + 0.002))
+                     & (mac_matrix(cur.shapes, prev.shapes) > criteria.mac_min))
+            ok = close.any(axis=1)
+        flags.append(ok & (cur.zeta > -0.02) & (cur.zeta < criteria.zeta_max))
+    return flags
+
+
+def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -> list[list[tuple[int, int]]]:
+    """Stable poles grouped by frequency (within ``freq_tol`` of the cluster's
+    mean) and shape (MAC to the cluster's first pole above ``mac_min``); each
+    cluster is a list of (order position, pole index)."""
+    stable = sorted(((poles[i].omega[j], i, j) for i, f in enumerate(flags) for j in np.flatnonzero(f)))
+    clusters: list[list[tuple[int, int]]] = []
+    sums: list[float] = []
+    shapes: list[np.ndarray] = []
+    for w, i, j in stable:
+        phi = poles[i].shapes[:, j]
+        best, best_mac = -1, criteria.mac_min
+        for c, (members, total) in enumerate(zip(clusters, sums)):
+            if abs(w - total / len(members)) < criteria.freq_tol * w:
+                value = abs(np.vdot(shapes[c], phi)) ** 2  # both of unit norm
+                if value > best_mac:
+                    best, best_mac = c, value
+        if best < 0:
+            clusters.append([(i, j)])
+            sums.append(w)
+            shapes.append(phi)
+        else:
+            clusters[best].append((i, j))
+            sums[best] += w
+    return clusters
+
+
+def select_modes(poles: list[Poles], criteria: Criteria) -> tuple[list[Mode], list[np.ndarray]]:
+    """The modes (ascending frequency) and the stability flags per order."""
+    flags = stable_flags(poles, criteria)
+    need = max(2, int(np.ceil(criteria.min_fraction * (len(poles) - 1))))
+    modes = []
+    for c in _clusters(poles, flags, criteria):
+        if len({i for i, _ in c}) < need:
+            continue
+        omega = np.array([poles[i].omega[j] for i, j in c])
+        zeta = np.array([poles[i].zeta[j] for i, j in c])
+        i, j = c[int(np.argmin(np.abs(omega - np.median(omega))))]
+        modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
+                          float(np.median(omega)), float(np.median(zeta))))
+    return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
+
+
+def _pole(poles: list[Poles], mode: Mode) -> Poles:
+    return next(p for p in poles if p.order == mode.order)
+
+
+def _merge(modes: list[Mode], poles: list[Poles], criteria: Criteria) -> list[Mode]:
+    """Neighbouring modes of (nearly) one frequency and one shape become one."""
+    out: list[Mode] = []
+    for md in modes:
+        if out:
+            last = out[-1]
+            w0, w1 = last.omega, md.omega
+            same = mac_matrix(_pole(poles, last).shapes[:, [last.index]],
+                              _pole(poles, md).shapes[:, [md.index]])[0, 0] > criteria.mac_min
+            if (w1 - w0) / w1 < criteria.freq_tol and same:
+                out[-1] = max(last, md, key=lambda x: x.support)
+                continue
+        out.append(md)
+    return out
