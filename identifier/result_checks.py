@@ -12,7 +12,8 @@ from .json_checks import Doc
 SENSOR = re.compile(r"^[a-z]+_\d+_\S+$")
 PARAMETER_KEYS = {"label", "kind", "unit", "value", "std_error", "initial"}
 RUN_KEYS = {"method", "structure", "repetition", "tests", "status", "message", "parameters", "iterations",
-            "history", "misfit_history", "omega", "eigenvalues", "mode_shapes", "sensors", "details"}
+            "history", "misfit_history", "omega", "eigenvalues", "mode_shapes", "sensors", "details",
+            "damping", "omega_std", "damping_std", "mpc", "mode_shapes_complex"}
 
 
 def _parameters(run: Doc) -> list[str]:
@@ -43,6 +44,14 @@ def _run(run: Doc) -> tuple[list[str], bool]:
             raise s.error(f"{s.value!r} is not a channel name <quantity>_<node>_<direction>")
     for shape in run.key("mode_shapes", []).items():
         shape.numbers(len(sensors.value))
+    modes = len(run.key("omega", []).value)
+    for key in ("damping", "omega_std", "damping_std", "mpc"):  # modal methods: one per mode, NaN allowed
+        values = run.key(key, [])
+        if values.value:
+            values.numbers(modes)
+    for shape in run.key("mode_shapes_complex", []).items():
+        for pair in shape.items():
+            pair.numbers(2)
     run.key("details", {}).obj()
     return labels, bool(history)
 
