@@ -54,6 +54,8 @@ class Tally:
 
     def run(self, case, *args) -> None:
         self.cases += 1
+        if self.cases % 100 == 0:
+            print(f"  ... {self.cases} cases, slowest {self.slowest:.1f} s", file=sys.stderr, flush=True)
         signal.alarm(HANG_SECONDS)
         start = time.monotonic()
         try:
