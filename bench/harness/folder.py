@@ -105,6 +105,11 @@ class Folder:
         self.traces.mkdir(parents=True, exist_ok=True)
         if not copy.exists():
             write_atomic(copy, campaign.text.encode())
+        self.remove_partial()
+
+    def remove_partial(self) -> None:
+        """Remove the temporary files of trace writes that never finished (a
+        killed run, or a worker killed mid-write with a crashing or hung FMU)."""
         for tmp in self.traces.glob(".*.tmp"):
             tmp.unlink(missing_ok=True)
 

@@ -52,4 +52,5 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, jobs: int | N
         tasks.run()
     finally:
         pool.close()
+        folder.remove_partial()  # writes cut short when a worker was killed
     return status
