@@ -82,3 +82,16 @@ def write_trace(path: str | Path, model, response: dict[str, np.ndarray], dt: fl
         f.create_group("noise").attrs.update({"sensor_ratio": max(noise.values(), default=0.0),
                                              "sensor_mode": mode, "seed": seed})
     return path
+
+
+def cantilever_trace(path: str | Path, noise: dict[str, float] | None = None) -> Path:
+    """A short trace of the chapter 4 case 1 cantilever under 1 N at 0.5 rad/s at
+    node 7 (10 s at 0.05 s): tip and root displacements and the tip force."""
+    from structbench.models import load_model
+
+    model = load_model("ch4-cantilever-case1")
+    t = np.arange(201) * 0.05
+    response = respond(model, harmonic_force(model, 7, "w", 1.0, 0.5, t), 0.05)
+    return write_trace(path, model, response, 0.05,
+                       [("displacement", 7, "w"), ("displacement", 2, "theta"), ("force", 7, "w")],
+                       noise=noise, test="a", excitation_attrs={"omega": 0.5})

@@ -7,18 +7,12 @@ import pytest
 
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.traces import read_trace, read_traces
-from identify_synth import harmonic_force, respond, write_trace
-from structbench.models import load_model
+from identify_synth import cantilever_trace
 
 
 @pytest.fixture()
 def trace_path(tmp_path):
-    model = load_model("ch4-cantilever-case1")
-    t = np.arange(201) * 0.05
-    response = respond(model, harmonic_force(model, 7, "w", 1.0, 0.5, t), 0.05)
-    return write_trace(tmp_path / "traces" / "a.h5", model, response, 0.05,
-                       [("displacement", 7, "w"), ("displacement", 2, "theta"), ("force", 7, "w")],
-                       noise={"displacement": 0.01}, test="a", excitation_attrs={"omega": 0.5})
+    return cantilever_trace(tmp_path / "traces" / "a.h5", {"displacement": 0.01})
 
 
 def test_reads_channels_excitation_and_attributes(trace_path):
