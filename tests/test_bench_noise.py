@@ -1,6 +1,7 @@
 """Sensor and actuator noise: requested ratio, reproducible from the seed."""
 from __future__ import annotations
 
+import json
 import zlib
 
 import h5py
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 
 from structbench.harness.excitation import ramp_envelope
+from structbench.harness.noise import derived_seed
 from structbench import run_campaign
 from bench_fixtures import assert_same_traces
 
@@ -39,6 +41,16 @@ noise = {{sensor = 0.05, mode = "proportional"}}
 name = "actuator"
 repetitions = 2
 noise = {{actuator_amplitude = 0.02, actuator_frequency = 0.01}}
+
+[[tests]]
+name = "drive"
+repetitions = 2
+excitation = [{{kind = "random", node = 7, dir = "w", rms = 1.0, band = [0.0, 20.0], seed = 11}}]
+
+[[tests]]
+name = "ambient"
+repetitions = 2
+excitation = [{{kind = "random", node = 7, dir = "w", rms = 1.0, band = [0.0, 20.0], seed = 11, realisation = "per-repetition"}}]
 """
 RATIO = 0.05
 N = 4001
@@ -126,6 +138,29 @@ def test_actuator_noise_changes_what_the_structure_feels(out):
     assert not np.array_equal(*responses)
 
 
+def band_limited(seed: int) -> np.ndarray:
+    """The documented random force: white noise from default_rng(seed) on the
+    grid, cut to [0, 20] rad/s by FFT, scaled to RMS 1 N."""
+    spectrum = np.fft.rfft(np.random.default_rng(seed).standard_normal(N))
+    spectrum[2 * np.pi * np.fft.rfftfreq(N, 0.01) > 20.0] = 0.0
+    x = np.fft.irfft(spectrum, N)
+    return x / np.sqrt(np.mean(x**2))
+
+
+def test_random_force_replayed_or_drawn_anew_per_repetition(out):
+    felt = {(name, r): channels(out / "traces" / f"{name}.r{r:03d}.h5")[0]["force_7_w"]
+            for name in ("drive", "ambient") for r in range(2)}
+    np.testing.assert_allclose(felt["drive", 0], band_limited(11), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(felt["drive", 0], felt["drive", 1])
+    for r in range(2):
+        own = derived_seed(11, "repetition", r)
+        np.testing.assert_allclose(felt["ambient", r], band_limited(own), rtol=0, atol=1e-12)
+        with h5py.File(out / "traces" / f"ambient.r{r:03d}.h5", "r") as f:
+            assert json.loads(f["excitation"].attrs["spec"])[0]["seed"] == own
+            np.testing.assert_array_equal(f["excitation/force_7_w"][()], felt["ambient", r])
+    assert np.corrcoef(felt["ambient", 0], felt["ambient", 1])[0, 1] < 0.1
+
+
 def test_sensor_noise_repetitions_share_one_simulation(tmp_path, tmp_path_factory, monkeypatch):
     import structbench.harness.simulation
 
@@ -140,4 +175,4 @@ def test_sensor_noise_repetitions_share_one_simulation(tmp_path, tmp_path_factor
     path = tmp_path / "noise.toml"
     path.write_text(CAMPAIGN.format(seed=5).replace("duration = 40.0", "duration = 1.0"))
     run_campaign(path, tmp_path / "out", jobs=0, fmu_dir=tmp_path_factory.getbasetemp() / "fmus")
-    assert sorted(calls) == ["actuator", "actuator", "clean", "proportional", "rms"]
+    assert sorted(calls) == ["actuator", "actuator", "ambient", "ambient", "clean", "drive", "proportional", "rms"]

@@ -158,7 +158,7 @@ STEPS: tuple[Step, ...] = (
          'damped beam, impulse, 2 % noise; SSI-cov on the velocities',
          groups=('impulse',), options={'quantity': 'velocity'}),
     Step('ch5-damped', 'random', MD,
-         'damped beam, 1 h of unmeasured random force, 2 % noise; SSI-cov on the velocities',
+         'damped beam, 8 h of unmeasured ambient force (new each repetition), 2 % noise; SSI-cov on the velocities',
          groups=('random',), options={'quantity': 'velocity'}),
 )
 

@@ -1,5 +1,6 @@
 """Excitation of a test: forces at (node, direction) as functions of time,
-initial conditions, and actuator noise on amplitude and frequency.
+initial conditions, actuator noise on amplitude and frequency, and the
+realisation of a random force per repetition.
 
 Forces are evaluated on the FMU communication grid ``t`` (s, shape (n,)) and
 held over each communication step; several items at one DOF add up.
@@ -11,6 +12,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
+
+from .noise import derived_seed
 
 Dof = tuple[int, str]
 
@@ -85,7 +88,10 @@ class Impulse:
 class RandomForce:
     """Band-limited Gaussian force of RMS ``rms`` N over ``band`` (rad/s):
     white noise from ``default_rng(seed)`` on the communication grid, cut to
-    the band by FFT and scaled to the exact RMS over the record."""
+    the band by FFT and scaled to the exact RMS over the record.
+    ``per_repetition``: every repetition draws a realisation of its own
+    (ambient, operational excitation; see :func:`realisations`); otherwise
+    every repetition replays the same signal, as a shaker drive file would."""
 
     kind: ClassVar[str] = "random"
     node: int
@@ -93,6 +99,7 @@ class RandomForce:
     rms: float
     band: tuple[float, float]
     seed: int
+    per_repetition: bool = False
 
     def force(self, t: np.ndarray, dt: float) -> np.ndarray:
         n = t.size
@@ -158,6 +165,19 @@ def perturb(items: tuple[Excitation, ...], rng: np.random.Generator, amplitude_r
     z = rng.standard_normal((len(items), 2))
     return tuple(item.perturbed(1 + amplitude_ratio * za, 1 + frequency_ratio * zf)
                  for item, (za, zf) in zip(items, z))
+
+
+def realisations(items: tuple[Excitation, ...], repetition: int) -> tuple[Excitation, ...]:
+    """The excitation of one repetition: a random force with ``per_repetition``
+    gets the seed ``derived_seed(seed, "repetition", repetition)``; every
+    other item is the same in every repetition."""
+    return tuple(dataclasses.replace(i, seed=derived_seed(i.seed, "repetition", repetition))
+                 if isinstance(i, RandomForce) and i.per_repetition else i for i in items)
+
+
+def varies(items: tuple[Excitation, ...]) -> bool:
+    """Does the excitation differ from one repetition to the next?"""
+    return any(isinstance(i, RandomForce) and i.per_repetition for i in items)
 
 
 def kind_label(items: tuple[Excitation, ...]) -> str:

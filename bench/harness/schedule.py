@@ -2,7 +2,8 @@
 
 Tests are split into tasks: a test without actuator noise simulates once and
 its sensor-noise repetitions are spread over the workers in chunks that reuse
-that simulation; with actuator noise every repetition is a task of its own.
+that simulation; with actuator noise or a per-repetition random force every
+repetition is a task of its own.
 Finished traces are written into the folder and the status updated after
 every task.
 """
@@ -77,7 +78,7 @@ class Scheduler:
             missing = [r for r in range(test.repetitions) if test.trace_name(r) not in st.present]
             if not missing:
                 continue
-            if test.noise.actuator:
+            if test.simulates_each_repetition:
                 for r in missing:
                     self.submit(Task(test, [r]))
             else:

@@ -1,8 +1,8 @@
 """One test on one FMU instance: excitation -> FMU -> sensor noise -> traces.
 
 Sensor noise is added after the simulation, so repetitions that differ only
-in sensor noise share one simulation; with actuator noise every repetition
-simulates with its own perturbed excitation.
+in sensor noise share one simulation; with actuator noise or a random force
+drawn anew per repetition every repetition simulates with its own excitation.
 """
 from __future__ import annotations
 
@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from .channels import Channel
-from .excitation import Excitation, Harmonic, force_dofs, forces, kind_label, perturb, spec
+from .excitation import Excitation, Harmonic, force_dofs, forces, kind_label, spec
 from .fmu_setup import Bench
-from .noise import actuator_rng, noisy_channels
+from .noise import noisy_channels
 from .test_entries import TestSpec
 from .trace_writer import ChannelData, Trace, trace_bytes, write_atomic
 
@@ -80,15 +80,17 @@ def _grid(test: TestSpec) -> np.ndarray:
     return np.arange((test.n_samples - 1) * test.substeps + 1) * test.step
 
 
-def commanded(test: TestSpec) -> dict[str, np.ndarray]:
-    """The noise-free forces as commanded, per ``force_<node>_<dir>``, at the sample times."""
-    dofs = force_dofs(test.excitation)
-    f = forces(test.excitation, dofs, _grid(test), test.dt)[::test.substeps]
+def commanded(test: TestSpec, items: tuple[Excitation, ...]) -> dict[str, np.ndarray]:
+    """The noise-free forces of ``items`` (a repetition's commanded excitation)
+    per ``force_<node>_<dir>``, at the sample times."""
+    dofs = force_dofs(items)
+    f = forces(items, dofs, _grid(test), test.dt)[::test.substeps]
     return {Channel("force", *d).name: f[:, j] for j, d in enumerate(dofs)}
 
 
-def simulate(rig: Rig, bench: Bench, test: TestSpec, items: tuple[Excitation, ...]) -> Record:
-    """Run ``items`` (the excitation, perhaps perturbed) and sample every channel."""
+def simulate(rig: Rig, bench: Bench, test: TestSpec, repetition: int) -> Record:
+    """Run a repetition's applied excitation and sample every channel."""
+    items = test.applied_excitation(repetition)
     mapping = bench.mapping
     dofs = force_dofs(items)
     force = forces(items, dofs, _grid(test), test.dt)
@@ -104,12 +106,12 @@ def simulate(rig: Rig, bench: Bench, test: TestSpec, items: tuple[Excitation, ..
         if bad.size:
             raise SimulationError(f"{name} is {x[bad[0]]} at t = {bad[0] * test.dt:.9g} s")
     return Record(np.arange(test.n_samples) * test.dt, {c.name: signals[c.name] for c in test.channels},
-                  commanded(test))
+                  commanded(test, test.commanded_excitation(repetition)))
 
 
-def _excitation_attrs(test: TestSpec) -> dict:
-    attrs = {"kind": kind_label(test.excitation), "spec": json.dumps([spec(i) for i in test.excitation])}
-    harmonic = next((i for i in test.excitation if isinstance(i, Harmonic)), None)
+def _excitation_attrs(items: tuple[Excitation, ...]) -> dict:
+    attrs = {"kind": kind_label(items), "spec": json.dumps([spec(i) for i in items])}
+    harmonic = next((i for i in items if isinstance(i, Harmonic)), None)
     if harmonic is not None:
         attrs |= {"omega": harmonic.omega, "window_start": harmonic.window_start}
     return attrs
@@ -135,7 +137,7 @@ def make_trace(bench: Bench, test: TestSpec, repetition: int, record: Record) ->
                                    bench.locations[d[0]], 0.0, mode) for d in force_dofs(test.excitation))
     return Trace(bench.campaign, test.name, test.group, repetition, bench.structure, bench.fmu_name,
                  bench.fmu_sha256, seed, test.dt, test.step, record.time, channels, excitation,
-                 _excitation_attrs(test), _noise_attrs(test, seed))
+                 _excitation_attrs(test.commanded_excitation(repetition)), _noise_attrs(test, seed))
 
 
 def run_test(rig: Rig, bench: Bench, test: TestSpec, repetitions: Sequence[int], record: Record | None = None,
@@ -149,12 +151,10 @@ def run_test(rig: Rig, bench: Bench, test: TestSpec, repetitions: Sequence[int],
     outcome = Outcome(test.name)
     try:
         for r in repetitions:
-            if test.noise.actuator:
-                items = perturb(test.excitation, actuator_rng(test.seed(r)), test.noise.actuator_amplitude,
-                                test.noise.actuator_frequency)
-                rec = simulate(rig, bench, test, items)
+            if test.simulates_each_repetition:
+                rec = simulate(rig, bench, test, r)
             else:
-                record = record if record is not None else simulate(rig, bench, test, test.excitation)
+                record = record if record is not None else simulate(rig, bench, test, r)
                 rec = record
             image: bytes | None = trace_bytes(make_trace(bench, test, r, rec))
             digest = hashlib.sha256(image).hexdigest()

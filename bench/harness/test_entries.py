@@ -12,9 +12,10 @@ from structbench.models import ModalModel, Model
 from structbench.models.errors import UserError
 
 from .channels import QUANTITIES, Channel
-from .excitation import Excitation, Harmonic, Impulse, Initial, RandomForce, force_dofs, is_force
+from .excitation import (Excitation, Harmonic, Impulse, Initial, RandomForce, force_dofs, is_force, perturb,
+                         realisations, varies)
 from .external import VariableMap
-from .noise import MODES, NoiseSpec, derived_seed
+from .noise import MODES, NoiseSpec, actuator_rng, derived_seed
 from .toml_lines import Path as KeyPath
 from .toml_table import Table
 
@@ -30,12 +31,13 @@ EXCITATION_KEYS = {
     "harmonic": ("kind", "node", "dir", "amplitude", "omega", "phase", "ramp", "settle"),
     "stepped-sine": ("kind", "node", "dir", "amplitude", "omegas", "phase", "ramp", "settle", "window"),
     "impulse": ("kind", "node", "dir", "impulse", "time", "method"),
-    "random": ("kind", "node", "dir", "rms", "band", "seed"),
+    "random": ("kind", "node", "dir", "rms", "band", "seed", "realisation"),
     "initial": ("kind", "node", "dir", "displacement", "velocity"),
 }
 SENSOR_KEYS = ("nodes", "dirs", "quantities")
 NOISE_KEYS = ("sensor", "mode", "actuator_amplitude", "actuator_frequency", "seed")
 IMPULSE_METHODS = ("pulse", "initial-velocity")
+REALISATIONS = ("shared", "per-repetition")  # a random force: replayed, or new in every repetition
 TEST_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 
 @dataclass(frozen=True)
@@ -71,6 +73,25 @@ class TestSpec:
     def seed(self, repetition: int) -> int:
         """Noise seed of a repetition (see :mod:`structbench.harness.noise`)."""
         return derived_seed(self.base_seed, self.name, repetition)
+
+    @property
+    def simulates_each_repetition(self) -> bool:
+        """Actuator noise or a per-repetition random force: every repetition
+        needs a simulation of its own (else they share one)."""
+        return self.noise.actuator or varies(self.excitation)
+
+    def commanded_excitation(self, repetition: int) -> tuple[Excitation, ...]:
+        """The excitation a repetition asks for (its random-force realisation)."""
+        return realisations(self.excitation, repetition)
+
+    def applied_excitation(self, repetition: int) -> tuple[Excitation, ...]:
+        """What the actuators apply in a repetition: the commanded excitation,
+        perturbed by actuator noise from that repetition's seed."""
+        items = self.commanded_excitation(repetition)
+        if not self.noise.actuator:
+            return items
+        return perturb(items, actuator_rng(self.seed(repetition)), self.noise.actuator_amplitude,
+                       self.noise.actuator_frequency)
 
     def trace_name(self, repetition: int) -> str:
         """``<test>.h5``, or ``<test>.r003.h5`` when the test has repetitions."""
@@ -186,7 +207,9 @@ class TestReader:
             raise item.error("band", f"expected [low, high] rad/s with 0 <= low < high <= pi/dt = {nyquist:g}, "
                                      f"got {band!r}")
         seed = item.integer("seed", derived_seed(self.noise.seed, self.name, "random", index), low=0)
-        return RandomForce(node, direction, item.number("rms", low=0.0), (float(band[0]), float(band[1])), seed)
+        realisation = item.string("realisation", "shared", choices=REALISATIONS)
+        return RandomForce(node, direction, item.number("rms", low=0.0), (float(band[0]), float(band[1])), seed,
+                           realisation == "per-repetition")
 
     def _initial(self, item: Table, node: int, direction: str, index: int, duration: float | None) -> Initial:
         if isinstance(self.model, ModalModel):
