@@ -17,7 +17,7 @@ from typing import Any
 
 from .fmu_setup import Bench
 from .folder import CampaignStatus, Folder
-from .pool import Pool, trace_task
+from .pool import Pool
 from .simulation import Outcome
 from .test_entries import TestSpec
 
@@ -44,7 +44,8 @@ class Scheduler:
     one at a time from then on, so only the task that kills its worker fails
     (with the signal that killed it). A task running longer than its test's
     ``timeout`` fails; local workers are then killed and restarted, and the
-    other tasks they were running are launched again.
+    other tasks they were running are launched again (Dask workers stop such
+    a task themselves: :func:`.pool.guarded_trace_task`).
     """
 
     def __init__(self, pool: Pool, bench: Bench, folder: Folder, status: CampaignStatus, blob: Any,
@@ -60,7 +61,7 @@ class Scheduler:
         self.queue.append(task)
 
     def _launch(self, task: Task) -> None:
-        future = self.pool.submit(trace_task, self.bench, task.test, task.repetitions, task.record,
+        future = self.pool.submit(self.pool.entry, self.bench, task.test, task.repetitions, task.record,
                                   bool(task.later), self.out_dir, self.blob)
         self.running[future] = (task, self.isolate, time.monotonic())
 
