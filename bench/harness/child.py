@@ -2,7 +2,7 @@
 
 A Dask worker runs tasks in threads, which cannot be stopped, and its
 process is daemonic, so it cannot start ``multiprocessing`` children either.
-:class:`Child` starts ``python -m structbench.harness.child READ_FD WRITE_FD``
+:class:`Child` starts a Python that runs :func:`serve` (:data:`COMMAND`)
 with :mod:`subprocess` instead: the child receives ``(function, args)``
 pickled over a pipe, runs it and sends back the result, keeping its module
 state (the warm FMU instance) between tasks, and exits when the pipe closes.
@@ -20,6 +20,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
+COMMAND = "import sys; from structbench.harness.child import serve; serve(int(sys.argv[1]), int(sys.argv[2]))"
 STARTUP_SECONDS = 300.0  # s, limit for the child to import structbench and say it is ready
 _CHILDREN: weakref.WeakSet[Child] = weakref.WeakSet()  # stopped at exit
 
@@ -38,7 +39,7 @@ class Child:
     def __init__(self) -> None:
         to_child, from_parent = os.pipe()
         to_parent, from_child = os.pipe()
-        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(to_child), str(from_child)],
+        self.process = subprocess.Popen([sys.executable, "-c", COMMAND, str(to_child), str(from_child)],
                                         pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL)
         os.close(to_child)
         os.close(from_child)
@@ -112,7 +113,3 @@ def serve(read_fd: int, write_fd: int) -> None:
             answer = (True, RuntimeError(f"{type(err).__name__}: {err}"))
         send.send(answer)
 
-
-if __name__ == "__main__":
-    import structbench.harness.simulation  # noqa: F401 - the import time belongs to the start-up
-    serve(int(sys.argv[1]), int(sys.argv[2]))
