@@ -91,6 +91,8 @@ def guarded_trace_task(bench: Bench, test: TestSpec, repetitions: list[int], rec
         return Outcome(test.name, error=f"timed out after {test.timeout:g} s")
     except ChildDied as err:
         return Outcome(test.name, error=str(err))
+    except OSError as err:  # the FMU file or the child could not be set up on this worker
+        return Outcome(test.name, error=f"{type(err).__name__}: {err}")
 
 
 # ---- pools -----------------------------------------------------------------
