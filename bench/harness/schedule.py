@@ -22,6 +22,7 @@ from .simulation import Outcome
 from .test_entries import TestSpec
 
 MAX_CHUNK = 10  # sensor-noise repetitions per task
+STATUS_SECONDS = 1.0  # s: status.json is rewritten at most this often while tasks finish
 
 
 @dataclass
@@ -133,6 +134,10 @@ class Scheduler:
         self.pool.restart()
 
     def run(self) -> None:
+        """Run the queued tasks, booking each; ``status.json`` is rewritten at
+        most every :data:`STATUS_SECONDS` (a trace written since is checked by
+        its contents on resume; :func:`.run.run_campaign` writes the last one)."""
+        written = time.monotonic()
         while self.running or self.queue:
             self._fill()
             done = self.pool.wait(self.running, self._next_deadline())
@@ -140,6 +145,8 @@ class Scheduler:
                 self.book(future)
             if not done:
                 self._stop_late()
-            self.folder.write_status(self.status)
+            if time.monotonic() - written >= STATUS_SECONDS:
+                self.folder.write_status(self.status)
+                written = time.monotonic()
             if self.progress is not None:
                 self.progress(self.status)
