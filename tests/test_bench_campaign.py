@@ -179,6 +179,7 @@ LIMITS = {
     "trace_bytes = 1e4": ("tests[1]", 13, "sine: a trace of 201 samples x 15 arrays is 24.1 kB, over "
                                           "limits.trace_bytes = 10000"),
     "total_bytes = 5e4": ("tests[2]", 23, "stepped-01: 54.4 kB of traces so far, over limits.total_bytes = 50000"),
+    "model_dofs = 11": ("structure", 2, "ch4-cantilever-case1 has 12 free DOF, over limits.model_dofs = 11"),
     "files = 3": ("limits.files", 38, "unknown key in limits"),
     "trace_files = 0": ("limits.trace_files", 38, "must be at least 1"),
 }

@@ -231,6 +231,8 @@ def load_campaign(path: str | Path) -> Campaign:
         raise top.error("truth", "the truth of a built-in or TOML structure comes from its model")
     check = top.table("check").data
     budget = Budget(top.table("limits"))
+    if model is not None:
+        budget.check_model(model, lambda message: top.error("structure", message))
     tests = reader.tests(model, locations, mapping, seed, budget)
     campaign = Campaign(name, path, text, structure, model, fmu, tests, parameters, mapping, locations, truth,
                         check, seed, tuple(reader.variables), reader.lines,

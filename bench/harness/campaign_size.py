@@ -12,11 +12,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from structbench.models import Model
+
 from .test_entries import TestSpec
 from .toml_lines import Path as KeyPath
 from .toml_table import CampaignError, Table
 
-LIMITS = {"trace_bytes": 2e9, "total_bytes": 1e11, "trace_files": 100_000}  # defaults of [limits]
+LIMITS = {"trace_bytes": 2e9, "total_bytes": 1e11, "trace_files": 100_000, "model_dofs": 1000}  # [limits] defaults
 
 
 def trace_size(test: TestSpec) -> int:
@@ -62,7 +64,17 @@ class Budget:
         self.trace_bytes = table.number("trace_bytes", LIMITS["trace_bytes"], positive=True)
         self.total_bytes = table.number("total_bytes", LIMITS["total_bytes"], positive=True)
         self.trace_files = table.integer("trace_files", LIMITS["trace_files"], low=1)
+        self.model_dofs = table.integer("model_dofs", LIMITS["model_dofs"], low=1)
         self.size = CampaignSize()
+
+    def check_model(self, model: Model, error: Callable[[str], CampaignError]) -> None:
+        """Fail (``error`` names the ``structure`` key) when the model has more
+        free DOF than ``model_dofs``: its truth (every mode) and the FMU's exact
+        discretisation (a matrix exponential of order 2 n) take time ~ n^3."""
+        if model.n_dof > self.model_dofs:
+            raise error(f"{model.name} has {model.n_dof} free DOF, over limits.model_dofs = {self.model_dofs} "
+                        "(the truth and the FMU's exact discretisation take time ~ DOF^3: on 2 cores, 30 s "
+                        "at 1000 DOF, over 2 min at 2000); raise [limits] model_dofs")
 
     def add(self, test: TestSpec, entry: KeyPath, error: Callable[[KeyPath, str], CampaignError]) -> None:
         """Count ``test`` (read from the ``[[tests]]`` entry at ``entry``); fail
