@@ -12,6 +12,7 @@ import numpy as np
 
 from .elements import element_type
 from .errors import ModelError
+from .input_text import read_input_text
 from .structure import SUPPORTS, Element, Structure
 
 TOP_KEYS = {"name", "description", "units", "unknown", "rayleigh", "nodes", "elements", "supports"}
@@ -135,10 +136,9 @@ def _check_mass(structure: Structure) -> None:
 def load_structure(path: str | Path) -> Structure:
     """Read a TOML model file; malformed TOML raises :class:`ModelError` with its line."""
     path = Path(path)
+    text = read_input_text(path, "model file", ModelError)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"malformed TOML: {err}", field=path.name) from None
-    except OSError as err:
-        raise ModelError(f"cannot read model file: {err.strerror}", field=str(path)) from None
     return structure_from_dict(data, default_name=path.stem)

@@ -87,8 +87,10 @@ def mutated(draw: st.DrawFn, base: Any) -> Any:
             container[key] = draw(WEIRD_STRINGS)
         elif op == "unknown" and isinstance(container, dict):
             container[draw(WEIRD_STRINGS)] = draw(VALUES)
-        elif op == "huge":
-            container[key] = [value if not isinstance(value, list) else 1.0] * draw(st.sampled_from([1000, 20000]))
+        elif op == "huge":  # the first 6 items (those later mutations reach) are copies, not the same object
+            item = value if not isinstance(value, list) else 1.0
+            n = draw(st.sampled_from([1000, 20000]))
+            container[key] = [copy.deepcopy(item) for _ in range(6)] + [item] * (n - 6)
         elif op == "nest":
             container[key] = draw(st.sampled_from([[value], {"value": value}, [[value, value]]]))
         elif op == "duplicate" and isinstance(container, list):

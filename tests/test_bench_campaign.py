@@ -165,3 +165,53 @@ def test_dissertation_campaigns_load(name, tests, channels, samples):
     assert len(campaign.tests) == tests
     assert {len(t.channels) for t in campaign.tests} == channels
     assert {t.n_samples for t in campaign.tests} == samples
+
+
+def test_campaign_size_counts_traces_bytes_and_steps(tmp_path):
+    size = load_campaign(write(tmp_path, GOOD)).size
+    # sine: 201 samples; stepped: 3 tests of 252; each trace holds time, 13 channels and 1 commanded force
+    assert (size.tests, size.trace_files) == (4, 4)
+    assert size.total_bytes == 8 * (1 + 13 + 1) * (201 + 3 * 252)
+    assert size.steps == 200 + 3 * 251
+    assert str(size) == "4 tests, 4 trace files (about 115 kB), 953 FMU steps"
+
+
+# [limits] appended to GOOD -> the [[tests]] entry and line named, and words of the message
+LIMITS = {
+    "trace_files = 3": ("tests[2]", 23, "stepped-03: 4 trace files so far (tests x repetitions), over "
+                                        "limits.trace_files = 3"),
+    "trace_bytes = 1e4": ("tests[1]", 13, "sine: a trace of 201 samples x 15 arrays is 24.1 kB, over "
+                                          "limits.trace_bytes = 10000"),
+    "total_bytes = 5e4": ("tests[2]", 23, "stepped-01: 54.4 kB of traces so far, over limits.total_bytes = 50000"),
+    "model_dofs = 11": ("structure", 2, "ch4-cantilever-case1 has 12 free DOF, over limits.model_dofs = 11"),
+    "files = 3": ("limits.files", 38, "unknown key in limits"),
+    "trace_files = 0": ("limits.trace_files", 38, "must be at least 1"),
+}
+
+
+@pytest.mark.parametrize("limit", sorted(LIMITS))
+def test_a_campaign_over_its_limits_fails_naming_the_test(limit, tmp_path, no_simulation):
+    key, line, words = LIMITS[limit]
+    with pytest.raises(CampaignError) as err:
+        run_campaign(write(tmp_path, GOOD + f"\n[limits]\n{limit}\n"), tmp_path / "out", jobs=0)
+    assert f"campaign.toml:{line}: {key}: {words}" in str(err.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_limit_can_be_raised(tmp_path):
+    big = GOOD.replace('name = "sine"\n', 'name = "sine"\nrepetitions = 100000\n')
+    with pytest.raises(CampaignError, match=r"tests\[2\]: stepped-01: 100001 trace files so far"):
+        load_campaign(write(tmp_path, big))
+    raised = load_campaign(write(tmp_path, big + "\n[limits]\ntrace_files = 200000\n"))
+    assert raised.size.trace_files == 100003
+
+
+def test_an_oversized_or_binary_campaign_file_is_refused_unread(tmp_path, capsys):
+    path = write(tmp_path, GOOD + "#" * (4 * 2**20))
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert (f"campaign.toml: campaign file of {path.stat().st_size} bytes, over the limit of 4194304 (4 MiB)"
+            in capsys.readouterr().err)
+    path.write_bytes(GOOD.encode() + b"# \xff\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert f"campaign.toml: campaign file is not UTF-8 text (byte {len(GOOD) + 2}: b'\\xff')" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

@@ -1,10 +1,14 @@
-"""A campaign on a Dask cluster gives bit-identical traces to the local run."""
+"""A campaign on a Dask cluster gives bit-identical traces to the local run;
+its workers stop a hung FMU at the test's time limit and contain a crash."""
 from __future__ import annotations
+
+import json
 
 import pytest
 
 from structbench import run_campaign
 from bench_fixtures import assert_same_traces
+from faulty_fixtures import CALM, CAMPAIGN as FAULTY, FAIL_KINDS, build_faulty
 
 distributed = pytest.importorskip("distributed")
 
@@ -56,3 +60,18 @@ def test_dask_cluster_gives_bit_identical_traces(tmp_path):
     assert_same_traces(tmp_path / "local", tmp_path / "dask")
     for path in (tmp_path / "local" / "traces").glob("*.h5"):  # the very same bytes
         assert path.read_bytes() == (tmp_path / "dask" / "traces" / path.name).read_bytes()
+
+
+def test_a_hung_fmu_on_dask_times_out_and_the_other_tests_complete(tmp_path):
+    """Faulty.fmu hangs at step 10 of test "faulty"; the time limit is 4 s.
+    One worker thread runs the tasks one after the other, so the tasks after
+    the hung one complete only if it is stopped."""
+    path = tmp_path / "faulty.toml"
+    path.write_text(FAULTY.format(kind="hang", fmu=build_faulty(tmp_path), code=FAIL_KINDS["hang"]))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        status = run_campaign(path, tmp_path / "out", scheduler=cluster.scheduler_address)
+    tests = json.loads((tmp_path / "out" / "status.json").read_text())["tests"]
+    assert {name: t["state"] for name, t in tests.items()} == {"calm": "done", "faulty": "failed", "noisy": "done"}
+    assert tests["faulty"]["error"] == "timed out after 4 s" and status.failed == 1
+    assert sorted(p.name for p in (tmp_path / "out" / "traces").iterdir()) == CALM

@@ -5,50 +5,16 @@ affected test, with the FMU's own message; the rest of the campaign runs,
 from __future__ import annotations
 
 import json
+import os
+import signal
+import time
 
 import pytest
 
 from structbench.cli import main
-from faulty_fixtures import FAIL_KINDS, build_faulty
+from structbench.harness.child import Child, ChildDied, TimedOut
+from faulty_fixtures import CALM, CAMPAIGN, FAIL_KINDS, build_faulty
 
-CAMPAIGN = """\
-name = "faulty-{kind}"
-structure = "{fmu}"
-
-[parameters]
-fail_kind = {code}
-fail_step = 10
-fail_force = 100.0
-
-[mapping]
-force = "F_{{node}}_{{dir}}"
-displacement = "u_{{node}}_{{dir}}"
-acceleration = "a_{{node}}_{{dir}}"
-
-[locations]
-1 = [0.0, 0.0, 0.0]
-
-[defaults]
-dt = 0.01
-duration = 1.0
-timeout = 4
-sensors = [{{nodes = "all", dirs = ["z"], quantities = ["displacement", "acceleration"]}}]
-
-[[tests]]
-name = "calm"
-excitation = [{{kind = "harmonic", node = 1, dir = "z", amplitude = 1.0, omega = 5.0}}]
-
-[[tests]]
-name = "faulty"   # 500 N >= fail_force: the fault strikes at step 10
-excitation = [{{kind = "harmonic", node = 1, dir = "z", amplitude = 500.0, omega = 0.0}}]
-
-[[tests]]
-name = "noisy"
-repetitions = 3
-noise = {{sensor = 0.01}}
-excitation = [{{kind = "random", node = 1, dir = "z", rms = 1.0, band = [1.0, 30.0]}}]
-"""
-CALM = ["calm.h5", "noisy.r000.h5", "noisy.r001.h5", "noisy.r002.h5"]
 EXPECTED = {
     "error": "fmi2DoStep failed (error) at t = 0.1 s: [error] stiffness matrix singular at step 10",
     "fatal": "fmi2DoStep failed (fatal) at t = 0.1 s: [fatal] solver memory corrupted at step 10",
@@ -103,3 +69,19 @@ def test_an_fmu_that_refuses_to_instantiate_fails_every_test(fmus, tmp_path, cap
                                    "[error] licence server unreachable, refusing to instantiate")
     assert printed.count("FAILED") == 3
     assert not list((out / "traces").iterdir())
+
+
+def test_the_dask_workers_child_process_stops_a_hung_task_and_names_a_crash():
+    """structbench.harness.child: results and exceptions come back; a task
+    over its limit kills the child; a child that dies is reported by signal."""
+    child = Child()
+    assert child.call(os.getpid, (), 60.0) == child.process.pid != os.getpid()
+    with pytest.raises(RuntimeError, match="ValueError: invalid literal for int"):
+        child.call(int, ("x",), 60.0)
+    with pytest.raises(TimedOut):
+        child.call(time.sleep, (600,), 0.5)
+    assert not child.alive
+    child = Child()
+    with pytest.raises(ChildDied, match="crashed with signal 11"):
+        child.call(signal.raise_signal, (signal.SIGSEGV,), 60.0)
+    assert not child.alive

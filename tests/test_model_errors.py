@@ -50,6 +50,13 @@ def test_malformed_toml_names_the_line(tmp_path):
         load_model(write(tmp_path, 'name = "x"\n[[nodes]\nid = 1\n'))
 
 
+def test_an_oversized_model_file_is_refused_unread(tmp_path, capsys):
+    path = write(tmp_path, FRAME.format(etype="spring", other="2", param="k", value="1.0") + "#" * 2**22)
+    assert main(["modes", str(path)]) == 2
+    assert (f"model.toml: model file of {path.stat().st_size} bytes, over the limit of 4194304 (4 MiB)"
+            in capsys.readouterr().err)
+
+
 def test_unknown_key_is_named(tmp_path):
     text = FRAME.format(etype="spring", other="2", param="k", value="1.0") + "colour = 'red'\n"
     with pytest.raises(ModelError, match=r"elements\[1\]\.colour"):

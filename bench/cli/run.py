@@ -72,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise api.UserError("is a file, expected a folder", field="--out")
     campaign = api.load_campaign(args.campaign)
+    print(f"{campaign.name}: {campaign.size}", flush=True)  # what the run is about to write and simulate
     progress = Progress()
     start = time.monotonic()
     try:

@@ -20,7 +20,9 @@ import numpy as np
 from structbench.fmus.spec import parameter_names
 from structbench.models import STRUCTURES, ModalModel, Model, load_model
 from structbench.models.errors import UserError
+from structbench.models.input_text import read_input_text
 
+from .campaign_size import Budget, CampaignSize
 from .external import BUILTIN, PLACEHOLDERS, QUANTITY_KEYS, VariableMap, closest, fmu_variables, pattern_fields
 from .test_entries import TEST_KEYS, TestReader, TestSpec
 from .toml_lines import Path as KeyPath
@@ -30,7 +32,7 @@ from .toml_table import CampaignError, Table, key_error
 __all__ = ["Campaign", "CampaignError", "TestSpec", "load_campaign"]
 
 TOP_KEYS = ("name", "description", "structure", "seed", "parameters", "mapping", "locations",
-            "truth", "check", "defaults", "tests")
+            "truth", "check", "limits", "defaults", "tests")
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,7 @@ class Campaign:
     variables: tuple[tuple[KeyPath, str, str], ...] = field(repr=False)  # (key, role, FMU variable)
     lines: Mapping[KeyPath, int] = field(repr=False, compare=False)
     true_model: Model | None = field(default=None, repr=False, compare=False)
+    size: CampaignSize = field(default_factory=CampaignSize, compare=False)  # what a run writes and simulates
 
     def location(self, node: int) -> tuple[float, float, float]:
         """Node coordinates (m), padded to 3; NaN when unknown."""
@@ -167,22 +170,25 @@ class CampaignReader:
 
     # ---- tests -------------------------------------------------------
     def tests(self, model: Model | None, locations: Mapping[int, Any], mapping: VariableMap,
-              seed: int) -> tuple[TestSpec, ...]:
+              seed: int, budget: Budget) -> tuple[TestSpec, ...]:
+        """The tests, counted in ``budget`` one by one (an over-limit campaign
+        stops being read at the test that crosses the limit)."""
         defaults = self.top.table("defaults")
         defaults.allow(tuple(k for k in TEST_KEYS if k != "name"), "defaults")
         raw = self.top.tables("tests")
         if not raw:
             raise self.error(("tests",), "a campaign needs at least one [[tests]] entry")
-        specs: list[TestSpec] = []
+        specs: dict[str, TestSpec] = {}
         for test in raw:
             merged = {**defaults.data, **test.data}
             origin = {**{k: ("defaults", k) for k in defaults.data}, **{k: test.where + (k,) for k in test.data}}
             parsed = TestReader(Table(self, merged, origin, test.where), model, locations, mapping, seed, self)
             for spec in parsed.specs():
-                if any(s.name == spec.name for s in specs):
+                if spec.name in specs:
                     raise test.error("name", f"duplicate test name {spec.name!r}")
-                specs.append(spec)
-        return tuple(specs)
+                specs[spec.name] = spec
+                budget.add(spec, test.where, self.error)
+        return tuple(specs.values())
 
     def want(self, key: KeyPath, mapping: VariableMap, quantity: str, node: int, direction: str) -> None:
         """Record the FMU variable a (quantity, DOF) needs; fail if unmapped."""
@@ -210,10 +216,7 @@ def with_parameters(model: Model, parameters: Mapping[str, float]) -> Model:
 def load_campaign(path: str | Path) -> Campaign:
     """Read and validate a campaign file; raises :class:`CampaignError`."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as err:
-        raise UserError(f"cannot read campaign file: {err.strerror}", field=str(path)) from None
+    text = read_input_text(path, "campaign file")
     reader = CampaignReader(path, text)
     top = reader.top
     top.allow(TOP_KEYS, "a campaign")
@@ -227,10 +230,13 @@ def load_campaign(path: str | Path) -> Campaign:
     if truth is not None and model is not None:
         raise top.error("truth", "the truth of a built-in or TOML structure comes from its model")
     check = top.table("check").data
-    tests = reader.tests(model, locations, mapping, seed)
+    budget = Budget(top.table("limits"))
+    if model is not None:
+        budget.check_model(model, lambda message: top.error("structure", message))
+    tests = reader.tests(model, locations, mapping, seed, budget)
     campaign = Campaign(name, path, text, structure, model, fmu, tests, parameters, mapping, locations, truth,
                         check, seed, tuple(reader.variables), reader.lines,
-                        with_parameters(model, parameters) if model is not None else None)
+                        with_parameters(model, parameters) if model is not None else None, budget.size)
     if fmu is not None:
         campaign.check_variables(fmu_variables(fmu), fmu.name)
     return campaign

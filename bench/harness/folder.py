@@ -3,8 +3,8 @@
 
 Trace files are written atomically and ``status.json`` records the sha256 of
 each once it is booked; a campaign started again in the same folder skips the
-traces whose checksum matches and deletes (to simulate again) the others:
-damaged files and files written after the last status update.
+traces whose checksum matches, checks the contents of those without a recorded
+checksum (:mod:`.trace_check`), and deletes (to simulate again) the others.
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from structbench.models.errors import UserError
 
 from .campaign import Campaign
 from .fmu_setup import Bench
+from .trace_check import is_trace_of
 from .trace_writer import write_atomic
 
 STATUS_FORMAT = "structbench-status"
@@ -122,20 +123,27 @@ class Folder:
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             return {}
 
-    def keep_verified(self) -> dict[str, str]:
-        """The trace files present whose checksum matches ``status.json``, with
-        their checksums; the others are deleted (to be simulated again)."""
+    def keep_verified(self, campaign: Campaign, bench: Bench) -> dict[str, str]:
+        """The trace files present that can be kept, with their checksums: those
+        whose checksum matches ``status.json``, and those it does not record
+        that hold the right trace (:func:`.trace_check.is_trace_of`: an older
+        folder, or a file written after the last status update). The others
+        (damaged files, strays) are deleted, to be simulated again."""
         recorded, good = self.recorded(), {}
+        expected = {t.trace_name(r): (t, r) for t in campaign.tests for r in range(t.repetitions)}
         for path in self.traces.glob("*.h5"):
-            if recorded.get(path.name) == file_sha256(path):
-                good[path.name] = recorded[path.name]
+            digest = file_sha256(path)
+            if recorded.get(path.name) == digest or (
+                    path.name not in recorded and path.name in expected
+                    and is_trace_of(path, bench, *expected[path.name])):
+                good[path.name] = digest
             else:
                 path.unlink()
         return good
 
     def status(self, campaign: Campaign, bench: Bench) -> CampaignStatus:
         """A fresh status with what is already present (checksums verified)."""
-        present = self.keep_verified()
+        present = self.keep_verified(campaign, bench)
         tests = {}
         for t in campaign.tests:
             names = [t.trace_name(r) for r in range(t.repetitions)]

@@ -20,6 +20,7 @@ from typing import Any
 
 from structbench.models.errors import UserError
 
+from .child import Child, ChildDied, TimedOut
 from .fmu_setup import Bench
 from .simulation import Outcome, Record, Rig, run_test
 from .test_entries import TestSpec
@@ -76,12 +77,31 @@ def trace_task(bench: Bench, test: TestSpec, repetitions: list[int], record: Rec
     return run_test(rig, bench, test, repetitions, record, keep_record, Path(out_dir) if out_dir else None)
 
 
+def guarded_trace_task(bench: Bench, test: TestSpec, repetitions: list[int], record: Record | None,
+                       keep_record: bool, out_dir: str | None, blob: bytes | None) -> Outcome:
+    """Dask worker entry point: :func:`trace_task` in this worker thread's
+    child process (:mod:`.child`), killed when it runs over the test's ``timeout``."""
+    try:
+        bench = dataclasses.replace(bench, fmu=_fmu_file(bench, blob))
+        child = getattr(_LOCAL, "child", None)
+        if child is None or not child.alive:
+            child = _LOCAL.child = Child()
+        return child.call(trace_task, (bench, test, repetitions, record, keep_record, out_dir, None), test.timeout)
+    except TimedOut:
+        return Outcome(test.name, error=f"timed out after {test.timeout:g} s")
+    except ChildDied as err:
+        return Outcome(test.name, error=str(err))
+    except OSError as err:  # the FMU file or the child could not be set up on this worker
+        return Outcome(test.name, error=f"{type(err).__name__}: {err}")
+
+
 # ---- pools -----------------------------------------------------------------
 class LocalPool:
     """``jobs`` worker processes (0: run in this process, without time
     limit). Workers write trace files themselves."""
 
     writes_files = True
+    entry = staticmethod(trace_task)  # what runs a task on a worker
 
     def __init__(self, jobs: int):
         self.jobs = jobs
@@ -154,9 +174,12 @@ class LocalPool:
 class DaskPool:
     """The workers of an existing Dask distributed cluster. Trace images come
     back to this process, which writes them; the FMU file is sent to the
-    workers once, so they need no shared file system (only structbench)."""
+    workers once, so they need no shared file system (only structbench).
+    Each worker thread runs its tasks in a child process, which stops a task
+    over its time limit (:func:`guarded_trace_task`)."""
 
     writes_files = False
+    entry = staticmethod(guarded_trace_task)
 
     def __init__(self, address: str, timeout: float = 30.0):
         from distributed import Client
@@ -173,7 +196,7 @@ class DaskPool:
     def submit(self, fn: Callable, *args: Any) -> Any:
         return self.client.submit(fn, *args, pure=False)
 
-    can_stop = False  # a hung task keeps its worker thread: it is only given up
+    can_stop = False  # the workers stop a task over its limit themselves
 
     def wait(self, futures: Iterable[Any], timeout: float | None = None) -> set[Any]:
         from distributed import wait as dask_wait

@@ -53,4 +53,5 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, jobs: int | N
     finally:
         pool.close()
         folder.remove_partial()  # writes cut short when a worker was killed
+        folder.write_status(status)  # what was booked, also when the run was interrupted
     return status

@@ -18,11 +18,12 @@ from typing import Any
 
 from .fmu_setup import Bench
 from .folder import CampaignStatus, Folder
-from .pool import Pool, trace_task
+from .pool import Pool
 from .simulation import Outcome
 from .test_entries import TestSpec
 
 MAX_CHUNK = 10  # sensor-noise repetitions per task
+STATUS_SECONDS = 1.0  # s: status.json is rewritten at most this often while tasks finish
 
 
 @dataclass
@@ -45,7 +46,8 @@ class Scheduler:
     one at a time from then on, so only the task that kills its worker fails
     (with the signal that killed it). A task running longer than its test's
     ``timeout`` fails; local workers are then killed and restarted, and the
-    other tasks they were running are launched again.
+    other tasks they were running are launched again (Dask workers stop such
+    a task themselves: :func:`.pool.guarded_trace_task`).
     """
 
     def __init__(self, pool: Pool, bench: Bench, folder: Folder, status: CampaignStatus, blob: Any,
@@ -61,7 +63,7 @@ class Scheduler:
         self.queue.append(task)
 
     def _launch(self, task: Task) -> None:
-        future = self.pool.submit(trace_task, self.bench, task.test, task.repetitions, task.record,
+        future = self.pool.submit(self.pool.entry, self.bench, task.test, task.repetitions, task.record,
                                   bool(task.later), self.out_dir, self.blob)
         self.running[future] = (task, self.isolate, time.monotonic())
 
@@ -133,6 +135,10 @@ class Scheduler:
         self.pool.restart()
 
     def run(self) -> None:
+        """Run the queued tasks, booking each; ``status.json`` is rewritten at
+        most every :data:`STATUS_SECONDS` (a trace written since is checked by
+        its contents on resume; :func:`.run.run_campaign` writes the last one)."""
+        written = time.monotonic()
         while self.running or self.queue:
             self._fill()
             done = self.pool.wait(self.running, self._next_deadline())
@@ -140,6 +146,8 @@ class Scheduler:
                 self.book(future)
             if not done:
                 self._stop_late()
-            self.folder.write_status(self.status)
+            if time.monotonic() - written >= STATUS_SECONDS:
+                self.folder.write_status(self.status)
+                written = time.monotonic()
             if self.progress is not None:
                 self.progress(self.status)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -266,7 +266,8 @@ class TestReader:
         return out
 
     # ---- assembly ----------------------------------------------------
-    def specs(self) -> list[TestSpec]:
+    def specs(self) -> Iterator[TestSpec]:
+        """The entry's tests, one at a time (a stepped sine: one per frequency)."""
         duration = self.t.number("duration", positive=True) if "duration" in self.t.data else None
         items, stepped = [], None
         for j, item in enumerate(self.t.tables("excitation")):
@@ -281,7 +282,8 @@ class TestReader:
         if stepped is None:
             if duration is None:
                 raise self.t.error("duration", "missing (required)")
-            return [self._spec(self.name, tuple(items), self._whole(duration, "duration"))]
+            yield self._spec(self.name, tuple(items), self._whole(duration, "duration"))
+            return
         j, template, omegas, window = stepped
         if duration is None:
             length = template.ramp + template.settle + window
@@ -291,13 +293,11 @@ class TestReader:
             duration = math.ceil(length / self.dt - 1e-9) * self.dt
         else:
             duration = self._whole(duration, "duration")
-        specs = []
         for k, omega in enumerate(omegas):
             expanded = list(items)
             expanded[j] = Harmonic(template.node, template.direction, template.amplitude, omega,
                                    template.phase, template.ramp, template.settle)
-            specs.append(self._spec(f"{self.name}-{k + 1:02d}", tuple(expanded), duration))
-        return specs
+            yield self._spec(f"{self.name}-{k + 1:02d}", tuple(expanded), duration)
 
     def _whole(self, duration: float, key: str) -> float:
         ratio = duration / self.dt

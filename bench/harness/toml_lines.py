@@ -21,12 +21,17 @@ class _Scanner:
     def __init__(self, text: str):
         self.text = text
         self.pos = 0
+        self._counted = (0, 1)  # (position, its line): line numbers are counted forward, O(text) in all
         self.lines: dict[Path, int] = {}
         self.arrays: dict[Path, int] = {}  # array-of-tables path -> last index
 
     # ---- low level ---------------------------------------------------
     def line(self) -> int:
-        return self.text.count("\n", 0, self.pos) + 1
+        """1-based line of ``pos`` (which only moves forward)."""
+        start, line = self._counted
+        line += self.text.count("\n", start, self.pos)
+        self._counted = (self.pos, line)
+        return line
 
     def peek(self, n: int = 1) -> str:
         return self.text[self.pos:self.pos + n]
