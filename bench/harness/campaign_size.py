@@ -37,7 +37,8 @@ def human_bytes(n: float) -> str:
 @dataclass
 class CampaignSize:
     """Tests, trace files, their bytes and the FMU communication steps to simulate
-    (once per test; per repetition when actuator noise changes the input)."""
+    (once per test; per repetition when actuator noise or a per-repetition
+    random force changes the input)."""
 
     tests: int = 0
     trace_files: int = 0
@@ -48,7 +49,7 @@ class CampaignSize:
         self.tests += 1
         self.trace_files += test.repetitions
         self.total_bytes += test.repetitions * trace_size(test)
-        simulations = test.repetitions if test.noise.actuator else 1
+        simulations = test.repetitions if test.simulates_each_repetition else 1
         self.steps += simulations * (test.n_samples - 1) * test.substeps
 
     def __str__(self) -> str:
