@@ -11,13 +11,16 @@ from pathlib import Path
 from typing import Any
 
 import h5py
+from h5py import h5d, h5o
 import numpy as np
 
 from .errors import IdentificationError
+from .hdf5_reads import attributes, samples
 
 FORMAT = "structbench-trace"
 QUANTITIES = ("displacement", "velocity", "acceleration", "force")
 CHANNEL_ATTRS = ("quantity", "unit", "node", "direction")
+CHANNEL_FIELDS = CHANNEL_ATTRS + ("location", "noise_ratio", "noise_mode")  # the attributes a Channel keeps
 
 
 @dataclass(frozen=True)
@@ -122,18 +125,6 @@ class Trace:
         return found
 
 
-def _decode(value: Any) -> Any:
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
-def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
-    return {k: _decode(v) for k, v in obj.attrs.items()}
-
-
 def _number(value: Any, where: str, what: str, kind: type = float) -> Any:
     """``value`` as a finite float (or int), else an error naming ``what``."""
     try:
@@ -146,26 +137,33 @@ def _number(value: Any, where: str, what: str, kind: type = float) -> Any:
     return number
 
 
-def _samples(ds: Any, where: str, name: str) -> np.ndarray:
-    """A real, finite 1-D dataset as floats."""
-    if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "iuf" or ds.ndim != 1:
-        kind = f"a dataset of {ds.dtype} with shape {ds.shape}" if isinstance(ds, h5py.Dataset) else "a group"
-        raise IdentificationError(f"{where}: {name} is {kind}, expected real numbers (1-D)", field=name)
-    data = np.asarray(ds[()], dtype=float)
+def _samples(parent: h5py.Group, key: str, where: str, name: str) -> tuple[np.ndarray, Any]:
+    """A real, finite 1-D dataset ``parent[key]`` as floats, with its low-level identifier."""
+    try:
+        oid = h5o.open(parent.id, key.encode())
+    except KeyError:  # a dangling link: the high-level lookup below says what it is
+        oid = None
+    data = samples(oid) if isinstance(oid, h5d.DatasetID) else None
+    if data is None:  # not a 1-D dataset of numbers (or an enumeration): h5py decides and words the error
+        ds = parent.get(key)
+        if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "iuf" or ds.ndim != 1:
+            kind = f"a dataset of {ds.dtype} with shape {ds.shape}" if isinstance(ds, h5py.Dataset) else "a group"
+            raise IdentificationError(f"{where}: {name} is {kind}, expected real numbers (1-D)", field=name)
+        data, oid = np.asarray(ds[()], dtype=float), ds.id
     bad = np.flatnonzero(~np.isfinite(data))
     if bad.size:
         raise IdentificationError(f"{where}: {name} is {data[bad[0]]} at sample {bad[0]} "
                                   f"({bad.size} non-finite samples)", field=name)
-    return data
+    return data, oid
 
 
-def _channel(ds: Any, where: str, n: int, sensor: bool) -> Channel:
-    name = ds.name
-    data = _samples(ds, where, name)
-    attrs = _attrs(ds)
-    for key in CHANNEL_ATTRS:
-        if key not in attrs:
-            raise IdentificationError(f"{where}: dataset {name} has no attribute {key!r}", field=key)
+def _channel(group: h5py.Group, key: str, where: str, n: int, sensor: bool) -> Channel:
+    name = f"{group.name}/{key}"
+    data, oid = _samples(group, key, where, name)
+    attrs = attributes(oid, CHANNEL_FIELDS)
+    for field_name in CHANNEL_ATTRS:
+        if field_name not in attrs:
+            raise IdentificationError(f"{where}: dataset {name} has no attribute {field_name!r}", field=field_name)
     if attrs["quantity"] not in QUANTITIES:
         raise IdentificationError(f"{where}: {name} has quantity {attrs['quantity']!r}; "
                                   f"known: {', '.join(QUANTITIES)}", field="quantity")
@@ -184,7 +182,7 @@ def _channel(ds: Any, where: str, n: int, sensor: bool) -> Channel:
     if mode not in ("rms", "proportional"):
         raise IdentificationError(f"{where}: {name} has noise_mode {mode!r}, expected rms or proportional",
                                   field="noise_mode")
-    return Channel(name=name.rsplit("/", 1)[-1], data=data, quantity=attrs["quantity"],
+    return Channel(name=key, data=data, quantity=attrs["quantity"],
                    unit=str(attrs["unit"]), node=_number(attrs["node"], where, f"{name} node", int),
                    direction=str(attrs["direction"]), location=location,
                    noise_ratio=_number(attrs.get("noise_ratio", 0.0), where, f"{name} noise_ratio"),
@@ -195,11 +193,11 @@ def _group(f: h5py.File, name: str, where: str, sensor: bool, n: int) -> dict[st
     group = f[name]
     if not isinstance(group, h5py.Group):
         raise IdentificationError(f"{where}: /{name} is a dataset, expected a group", field=name)
-    return {k: _channel(ds, where, n, sensor) for k, ds in group.items()}
+    return {key: _channel(group, key, where, n, sensor) for key in group}
 
 
 def _excitation_attrs(f: h5py.File, where: str) -> dict[str, Any]:
-    attrs = _attrs(f["excitation"])
+    attrs = attributes(f["excitation"].id)
     if isinstance(attrs.get("spec"), str):
         try:
             attrs["spec"] = json.loads(attrs["spec"])
@@ -212,14 +210,14 @@ def _excitation_attrs(f: h5py.File, where: str) -> dict[str, Any]:
 
 def _read(f: h5py.File, path: Path) -> Trace:
     where = path.name
-    attrs = _attrs(f)
+    attrs = attributes(f.id)
     if not isinstance(attrs.get("format"), str) or attrs["format"] != FORMAT:
         raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
                                   f"expected {FORMAT!r}", field="format")
     for name in ("time", "channels"):
         if name not in f:
             raise IdentificationError(f"{where}: missing dataset or group /{name}", field=name)
-    time = _samples(f["time"], where, "/time")
+    time, _ = _samples(f, "time", where, "/time")
     if time.size < 2 or np.any(np.diff(time) <= 0):
         raise IdentificationError(f"{where}: /time must hold at least two increasing samples", field="time")
     dt = _number(attrs.get("dt", time[1] - time[0]), where, "dt")
@@ -232,7 +230,7 @@ def _read(f: h5py.File, path: Path) -> Trace:
     if "excitation" in f:
         excitation = _group(f, "excitation", where, False, time.size)
         excitation_attrs = _excitation_attrs(f, where)
-    noise_attrs = _attrs(f["noise"]) if "noise" in f else {}
+    noise_attrs = attributes(f["noise"].id) if "noise" in f else {}
     return Trace(path=path, time=time, dt=dt, step=step, channels=channels, excitation=excitation,
                  attrs=attrs, excitation_attrs=excitation_attrs, noise_attrs=noise_attrs)
 
