@@ -155,8 +155,7 @@ def trace_motion(trace: Trace, model: Structure, samples: int | None, interval: 
         t = (trace.time - trace.time[0])[:, None]
         measured = {"displacement": (u, acc[1] * np.sqrt(trace.dt * t**3 / 3)),
                     "velocity": (v, acc[1] * np.sqrt(trace.dt * t))}
-    idx = (np.arange(trace.time.size) if samples is None
-           else sample_indices(trace.time, samples, interval, trace.path.name))
+    idx = slice(None) if samples is None else sample_indices(trace.time, samples, interval, trace.path.name)
     sigma = {"acceleration": acc[1][idx], "force": fsigma[idx],
              "displacement": measured["displacement"][1][idx], "velocity": measured["velocity"][1][idx]}
     return Motion(trace.time[idx], measured["displacement"][0][idx], measured["velocity"][0][idx],

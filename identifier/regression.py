@@ -112,15 +112,23 @@ def layout(model: Structure) -> Layout:
 
 
 def raw(motion, where: slice) -> np.ndarray:
-    """Raw channels ``[a, v, u, f]`` of samples ``where``, transposed: (4 n, m_chunk)."""
-    return np.vstack([getattr(motion, q)[where].T for q in QUANTITIES])
+    """Raw channels ``[a, v, u, f]`` of samples ``where``, transposed: (4 n, m_chunk), C order
+    (sparse products copy operands in any other order)."""
+    n, m = motion.force.shape[1], len(range(*where.indices(motion.force.shape[0])))
+    x = np.empty((4 * n, m))
+    for i, q in enumerate(QUANTITIES):
+        x[i * n:(i + 1) * n] = getattr(motion, q)[where].T
+    return x
 
 
 def raw_variance(motion, where: slice) -> np.ndarray:
-    """Noise variance of the raw channels, (4 n, m_chunk); zero where undeclared."""
-    shape = motion.force[where].T.shape
-    return np.vstack([motion.sigma[q][where].T ** 2 if q in motion.sigma else np.zeros(shape)
-                      for q in QUANTITIES])
+    """Noise variance of the raw channels, (4 n, m_chunk), C order; zero where undeclared."""
+    n, m = motion.force.shape[1], len(range(*where.indices(motion.force.shape[0])))
+    x = np.zeros((4 * n, m))
+    for i, q in enumerate(QUANTITIES):
+        if q in motion.sigma:
+            np.square(motion.sigma[q][where].T, out=x[i * n:(i + 1) * n])
+    return x
 
 
 def rows(lay: Layout, x: np.ndarray) -> np.ndarray:
