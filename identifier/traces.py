@@ -59,8 +59,34 @@ class Channel:
         return np.full(self.data.shape, self.noise_ratio * rms)
 
 
+class _Named:
+    """``test``, ``repetition`` and ``structure`` of a trace from its root
+    attributes ``attrs`` and its file ``path``."""
+
+    @property
+    def test(self) -> str:
+        return str(self.attrs.get("test", self.path.stem))
+
+    @property
+    def repetition(self) -> int:
+        return int(self.attrs.get("repetition", 0))
+
+    @property
+    def structure(self) -> str:
+        return str(self.attrs.get("structure", ""))
+
+
 @dataclass(frozen=True)
-class Trace:
+class TraceInfo(_Named):
+    """A trace file and its root attributes, read without the samples (what
+    grouping traces into runs needs)."""
+
+    path: Path
+    attrs: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Trace(_Named):
     """One test (and repetition) as recorded.
 
     ``time`` (n,) s and ``dt`` s; ``step`` is the interval over which forces are
@@ -79,18 +105,6 @@ class Trace:
     attrs: dict[str, Any]
     excitation_attrs: dict[str, Any] = field(default_factory=dict)
     noise_attrs: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def test(self) -> str:
-        return str(self.attrs.get("test", self.path.stem))
-
-    @property
-    def repetition(self) -> int:
-        return int(self.attrs.get("repetition", 0))
-
-    @property
-    def structure(self) -> str:
-        return str(self.attrs.get("structure", ""))
 
     @property
     def omega(self) -> float:
@@ -208,12 +222,19 @@ def _excitation_attrs(f: h5py.File, where: str) -> dict[str, Any]:
     return attrs
 
 
-def _read(f: h5py.File, path: Path) -> Trace:
-    where = path.name
+def _root_attrs(f: h5py.File, where: str) -> dict[str, Any]:
+    """The root attributes, ``format`` checked and ``repetition`` an integer."""
     attrs = attributes(f.id)
     if not isinstance(attrs.get("format"), str) or attrs["format"] != FORMAT:
         raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
                                   f"expected {FORMAT!r}", field="format")
+    attrs["repetition"] = _number(attrs.get("repetition", 0), where, "repetition", int)
+    return attrs
+
+
+def _read(f: h5py.File, path: Path) -> Trace:
+    where = path.name
+    attrs = _root_attrs(f, where)
     for name in ("time", "channels"):
         if name not in f:
             raise IdentificationError(f"{where}: missing dataset or group /{name}", field=name)
@@ -224,7 +245,6 @@ def _read(f: h5py.File, path: Path) -> Trace:
     step = _number(attrs.get("step", dt), where, "step")
     if dt <= 0 or step <= 0:
         raise IdentificationError(f"{where}: dt and step must be positive, got {dt} and {step}", field="dt")
-    attrs["repetition"] = _number(attrs.get("repetition", 0), where, "repetition", int)
     channels = _group(f, "channels", where, True, time.size)
     excitation, excitation_attrs = {}, {}
     if "excitation" in f:
@@ -247,6 +267,17 @@ def read_trace(path: str | Path) -> Trace:
         raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
 
 
+def read_info(path: str | Path) -> TraceInfo:
+    """The root attributes of one trace file (``format`` and ``repetition``
+    checked as :func:`read_trace` does), without reading the samples."""
+    path = Path(path)
+    try:
+        with h5py.File(path, "r") as f:
+            return TraceInfo(path, _root_attrs(f, path.name))
+    except (OSError, KeyError, RuntimeError) as err:  # h5py's errors on damaged files
+        raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
+
+
 def trace_files(source: str | Path | list[str | Path]) -> list[Path]:
     """``DIR/traces/*.h5`` of a campaign folder, ``DIR/*.h5``, or the given files."""
     if isinstance(source, (str, Path)) and Path(source).is_dir():
@@ -265,3 +296,9 @@ def trace_files(source: str | Path | list[str | Path]) -> list[Path]:
 def read_traces(source: str | Path | list[str | Path]) -> list[Trace]:
     """All traces of a campaign folder (or the given files), sorted by (test, repetition)."""
     return sorted((read_trace(p) for p in trace_files(source)), key=lambda t: (t.test, t.repetition))
+
+
+def read_infos(source: str | Path | list[str | Path]) -> list[TraceInfo]:
+    """:func:`read_info` of every trace of a campaign folder (or the given
+    files), sorted by (test, repetition) as :func:`read_traces` sorts."""
+    return sorted((read_info(p) for p in trace_files(source)), key=lambda t: (t.test, t.repetition))

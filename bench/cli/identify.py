@@ -37,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--joint", action="store_true", help="identify the selected groups of a repetition together")
     parser.add_argument("--tag", help="result file results/<method>-<tag>.json")
     parser.add_argument("--json", action="store_true", help="print the result document as JSON")
+    parser.add_argument("--jobs", type=int, metavar="N",
+                        help="processes identifying runs in parallel (default: one per available core; "
+                             "1: in this process); the results do not depend on it")
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="a method option by name, for any method including plugins (repeatable; "
                              "VALUE parsed as JSON when it is, else a string), e.g. --option modes=3")
@@ -132,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group,
                                 tests=args.test, joint=args.joint, tag=args.tag,
-                                progress=progress if shown is not None else None, **options(args))
+                                progress=progress if shown is not None else None, jobs=args.jobs,
+                                **options(args))
     finally:
         if shown is not None:
             shown.close()

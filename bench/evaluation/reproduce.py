@@ -194,7 +194,8 @@ def run_all(out: Path, repetitions: int | None, jobs: int | None,
         for step in (s for s in STEPS if s.campaign == name):
             say(f"      identify {step.stem}: {step.variant}")
             identify_folder(folder, step.method, groups=step.groups or None, tests=step.tests or None,
-                            joint=step.joint, tag=step.tag, options=step.options)
+                            joint=step.joint, tag=step.tag, options=step.options,
+                            jobs=None if jobs is None else max(1, jobs))
         scores[name] = score_campaign(folder)
     return scores
 

@@ -7,25 +7,30 @@ identified together; ``joint`` puts the selected groups of one repetition
 together (two impulse tests averaged by the Rayleigh method, for instance).
 The runs go to ``CAMPAIGN_DIR/results/<method>[-<tag>].json``
 (docs/results-format.md), with a stabilisation diagram PNG per run for the
-modal method.
+modal method. Grouping reads only the files' root attributes; the samples
+are read run by run, by the process that identifies the run
+(:mod:`.parallel`).
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from fnmatch import fnmatch
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.results import Identification, result_path, results_document, write_results
-from structbench.identifier.traces import Trace, read_traces
+from structbench.identifier.results import result_path, results_document, write_results
+from structbench.identifier.traces import Trace, TraceInfo, read_infos
 from structbench.models import STRUCTURES, Model, ModelError, load_model
 
 from .diagrams import write_diagrams
 from .methods import Method, method
+from .parallel import identify_runs
+
+T = TypeVar("T", Trace, TraceInfo)
 
 
-def resolve_model(name: str | None, traces: list[Trace], chosen: Method) -> Model | None:
+def resolve_model(name: str | None, traces: Sequence[Trace | TraceInfo], chosen: Method) -> Model | None:
     """The given model or the structure named by the traces (its
     ``-postulated`` variant for methods that start from one); ``None`` when
     the method can do without and the structure is not a known model."""
@@ -45,11 +50,11 @@ def resolve_model(name: str | None, traces: list[Trace], chosen: Method) -> Mode
                                   field="--model") from None
 
 
-def group_runs(traces: list[Trace], groups: Sequence[str] | None = None, tests: Sequence[str] | None = None,
-               joint: bool = False) -> list[list[Trace]]:
-    """Traces per run: by (group, repetition), or by repetition with ``joint``,
-    of the selected groups and tests (shell patterns)."""
-    def group(t: Trace) -> str:
+def group_runs(traces: list[T], groups: Sequence[str] | None = None, tests: Sequence[str] | None = None,
+               joint: bool = False) -> list[list[T]]:
+    """Traces (or their :class:`TraceInfo`) per run: by (group, repetition),
+    or by repetition with ``joint``, of the selected groups and tests (shell patterns)."""
+    def group(t: Trace | TraceInfo) -> str:
         return str(t.attrs.get("group", t.test))
 
     present = sorted({group(t) for t in traces})
@@ -62,7 +67,7 @@ def group_runs(traces: list[Trace], groups: Sequence[str] | None = None, tests: 
     if not chosen:
         raise IdentificationError(f"no trace matches --test {' '.join(tests or [])}", field="--test")
     key = (lambda t: ("", t.repetition)) if joint else (lambda t: (group(t), t.repetition))
-    out: dict[tuple[str, int], list[Trace]] = {}
+    out: dict[tuple[str, int], list[T]] = {}
     for t in sorted(chosen, key=lambda t: (key(t), t.test)):
         out.setdefault(key(t), []).append(t)
     return list(out.values())
@@ -72,23 +77,21 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
                     groups: Sequence[str] | None = None, tests: Sequence[str] | None = None,
                     joint: bool = False, tag: str | None = None,
                     options: Mapping[str, Any] | None = None,
-                    progress: Callable[[int, int], None] | None = None) -> tuple[dict[str, Any], Path]:
+                    progress: Callable[[int, int], None] | None = None,
+                    jobs: int | None = None) -> tuple[dict[str, Any], Path]:
     """Identify every run of a campaign folder with one method and write the
     results file; returns the result document and its path. ``progress``
-    receives (runs done, runs in all) after every run."""
+    receives (runs done, runs in all) after every run; ``jobs``: processes
+    (default: one per available core; 1: in this process)."""
     folder = Path(campaign_dir)
     if not folder.is_dir():
         raise IdentificationError(f"no such campaign folder {folder}", field="CAMPAIGN_DIR")
     chosen = method(method_name)
     settings = chosen.options(options or {})
-    traces = read_traces(folder)
+    traces = read_infos(folder)
     resolved = resolve_model(model, traces, chosen)
     runs = group_runs(traces, groups, tests, joint)
-    results: list[Identification] = []
-    for run in runs:
-        results.append(chosen.call(run, resolved, **settings))
-        if progress is not None:
-            progress(len(results), len(runs))
+    results = identify_runs([[t.path for t in run] for run in runs], chosen, resolved, settings, jobs, progress)
     document = results_document(chosen.name, results, str(traces[0].attrs.get("campaign", "")),
                                 model or (resolved.name if resolved is not None else traces[0].structure),
                                 {"group": list(groups) if groups else None,
