@@ -1,0 +1,112 @@
+"""Least squares through the product path: ``structbench identify`` of a
+campaign folder with 100 repetitions of the chapter 3 harmonic test (32-DOF
+beam, 97 channels x 4,001 samples per trace; the default estimator,
+bias-compensated over every sample). Issue 11's target: under 10 s on 2 cores.
+
+The folder is built once through the FMU (``campaigns/ch3.toml``, its
+harmonic test) and kept in the temp dir. Measured in one run:
+
+1. the whole command (a fresh ``python -m structbench.cli identify``: interpreter
+   start and imports included) with ``--jobs 1`` and ``--jobs 2``, with the
+   peak resident memory of the main process and of the largest worker;
+2. in this process, the split of ``--jobs 1``: reading the 100 traces
+   (:func:`read_traces`) and identifying the 100 runs from memory;
+3. whether the two results files hold the same numbers.
+
+    python benchmarks/identify_folder_speed.py [--repetitions N] [--folder DIR]
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from threadpoolctl import threadpool_limits
+
+from structbench import run_campaign
+from structbench.harness.campaign import load_campaign
+from structbench.identification.methods import method
+from structbench.identifier.traces import read_traces
+from structbench.models import load_model
+
+ROOT = Path(__file__).resolve().parent.parent
+MEASURE = """\
+import json, resource, sys, time
+start = time.perf_counter()
+from structbench.cli import main
+code = main(sys.argv[1:])
+print(json.dumps({"code": code, "seconds": time.perf_counter() - start,
+                  "main_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "worker_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))
+"""
+
+
+def build(folder: Path, repetitions: int) -> Path:
+    """The ch3 harmonic test with ``repetitions`` repetitions in ``folder`` (a finished folder is kept)."""
+    campaign = load_campaign(ROOT / "campaigns" / "ch3.toml")
+    test = dataclasses.replace(next(t for t in campaign.tests if t.name == "harmonic"), repetitions=repetitions)
+    start = time.perf_counter()
+    status = run_campaign(dataclasses.replace(campaign, tests=(test,)), folder)
+    if status.failed:
+        raise SystemExit(f"building {folder} failed: see {folder / 'status.json'}")
+    print(f"folder {folder}: {len(list((folder / 'traces').glob('*.h5')))} traces "
+          f"({time.perf_counter() - start:.1f} s to build or check)")
+    return folder
+
+
+def command(folder: Path, jobs: int) -> dict:
+    """``structbench identify`` in a fresh interpreter: wall time (s) and peak memory (MB)."""
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", MEASURE, "identify", str(folder), "--method", "least-squares",
+                           "--jobs", str(jobs), "--tag", f"speed-j{jobs}"], capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(done.stderr)
+    return json.loads(done.stdout.strip().splitlines()[-1]) | {"wall": wall}
+
+
+def split(folder: Path) -> tuple[float, float]:
+    """Seconds to read every trace and to identify every run from memory (this process, BLAS 1 thread)."""
+    start = time.perf_counter()
+    traces = read_traces(folder)
+    read = time.perf_counter() - start
+    model, chosen = load_model(traces[0].structure), method("least-squares")
+    settings = chosen.options({})
+    start = time.perf_counter()
+    with threadpool_limits(1, "blas"):
+        for trace in traces:
+            chosen.call([trace], model, **settings)
+    return read, time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repetitions", type=int, default=100)
+    parser.add_argument("--folder", type=Path, help="campaign folder (default: in the temp dir)")
+    args = parser.parse_args()
+    folder = build(args.folder or Path(tempfile.gettempdir()) / f"structbench-ch3-{args.repetitions}",
+                   args.repetitions)
+    print(f"load average before: {os.getloadavg()[0]:.1f} (2 other busy processes take a core from the workers)")
+    runs = {jobs: command(folder, jobs) for jobs in (1, 2)}
+    for jobs, r in runs.items():
+        print(f"structbench identify --jobs {jobs}: {r['wall']:.2f} s wall ({r['seconds']:.2f} s after the "
+              f"interpreter started), peak RSS main {r['main_mb']:.0f} MB"
+              + (f", largest worker {r['worker_mb']:.0f} MB" if jobs > 1 else ""))
+    print(f"speed-up jobs 2 / jobs 1: {runs[1]['wall'] / runs[2]['wall']:.2f}")
+    read, identify = split(folder)
+    print(f"split in one process: read {read:.2f} s ({1e3 * read / args.repetitions:.1f} ms per trace), "
+          f"identify {identify:.2f} s ({1e3 * identify / args.repetitions:.1f} ms per run)")
+    documents = [json.loads((folder / "results" / f"least-squares-speed-j{j}.json").read_text()) for j in (1, 2)]
+    same = [d["runs"] for d in documents[:1]] == [d["runs"] for d in documents[1:]]
+    print(f"results of --jobs 1 and --jobs 2 {'identical' if same else 'DIFFER'}; "
+          f"load average after: {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
