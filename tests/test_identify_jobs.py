@@ -75,6 +75,17 @@ def test_a_bad_trace_read_by_a_worker_is_one_line(beam_campaign, tmp_path, capsy
     assert not (tmp_path / "results").exists()
 
 
+def test_a_worker_that_dies_is_one_line(beam_campaign, monkeypatch, capsys):
+    parent = os.getpid()
+    original = parallel.identify_run
+    monkeypatch.setattr(parallel, "identify_run",
+                        lambda *args: original(*args) if os.getpid() == parent else os._exit(9))
+    assert main(["identify", str(beam_campaign), "--method", "least-squares", "--jobs", "2", "--tag", "dead"]) == 2
+    assert capsys.readouterr().err.strip() == ("structbench identify: error: --jobs: a worker process died "
+                                               "(out of memory?); try fewer jobs")
+    assert not (beam_campaign / "results" / "least-squares-dead.json").exists()
+
+
 @pytest.mark.parametrize("jobs", ["0", "-2"])
 def test_jobs_below_one_exit_2(beam_campaign, capsys, jobs):
     assert main(["identify", str(beam_campaign), "--method", "least-squares", "--jobs", jobs]) == 2

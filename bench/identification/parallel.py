@@ -60,8 +60,9 @@ def identify_runs(runs: Sequence[Sequence[Path]], chosen: Method, model: Model |
                   settings: Mapping[str, Any], jobs: int | None = None,
                   progress: Callable[[int, int], None] | None = None) -> list[Identification]:
     """One :class:`Identification` per run (the trace files of each), in run
-    order, on ``jobs`` processes (default: one per available core; 1: in
-    this process). ``progress`` receives (runs done, runs in all) after every run."""
+    order, on ``jobs`` processes (default: one per available core; 1, or
+    when this process is a daemon: in this process). ``progress`` receives
+    (runs done, runs in all) after every run."""
     jobs = available_cores() if jobs is None else jobs
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise IdentificationError(f"must be a whole number of at least 1, got {jobs!r}", field="--jobs")
@@ -73,7 +74,7 @@ def identify_runs(runs: Sequence[Sequence[Path]], chosen: Method, model: Model |
             progress(len(results), len(runs))
 
     workers = min(jobs, len(runs))
-    if workers <= 1:
+    if workers <= 1 or multiprocessing.current_process().daemon:  # a daemon (a pool's worker) has no children
         with threadpool_limits(BLAS_THREADS, "blas"):
             for paths in runs:
                 finished(identify_run(chosen, model, settings, paths))
