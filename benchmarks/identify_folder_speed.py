@@ -6,9 +6,10 @@ bias-compensated over every sample). Issue 11's target: under 10 s on 2 cores.
 The folder is built once through the FMU (``campaigns/ch3.toml``, its
 harmonic test) and kept in the temp dir. Measured in one run:
 
-1. the whole command (a fresh ``python -m structbench.cli identify``: interpreter
-   start and imports included) with ``--jobs 1`` and ``--jobs 2``, with the
-   peak resident memory of the main process and of the largest worker;
+1. the whole command (``structbench identify`` in a fresh interpreter: start
+   and imports included) with ``--jobs 1`` and ``--jobs 2``: wall time, CPU
+   time of all its processes, peak resident memory of the main process and
+   of the largest worker;
 2. in this process, the split of ``--jobs 1``: reading the 100 traces
    (:func:`read_traces`) and identifying the 100 runs from memory;
 3. whether the two results files hold the same numbers.
@@ -41,9 +42,10 @@ import json, resource, sys, time
 start = time.perf_counter()
 from structbench.cli import main
 code = main(sys.argv[1:])
+me, workers = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
 print(json.dumps({"code": code, "seconds": time.perf_counter() - start,
-                  "main_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                  "worker_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))
+                  "cpu": me.ru_utime + me.ru_stime + workers.ru_utime + workers.ru_stime,
+                  "main_mb": me.ru_maxrss / 1024, "worker_mb": workers.ru_maxrss / 1024}))
 """
 
 
@@ -71,18 +73,20 @@ def command(folder: Path, jobs: int) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1]) | {"wall": wall}
 
 
-def split(folder: Path) -> tuple[float, float]:
-    """Seconds to read every trace and to identify every run from memory (this process, BLAS 1 thread)."""
-    start = time.perf_counter()
+def split(folder: Path) -> dict[str, tuple[float, float]]:
+    """(wall, CPU) seconds to read every trace and to identify every run from
+    memory, in this process with BLAS on 1 thread as the command runs it."""
+    clock = (lambda: (time.perf_counter(), time.process_time()))
+    start = clock()
     traces = read_traces(folder)
-    read = time.perf_counter() - start
+    read = clock()
     model, chosen = load_model(traces[0].structure), method("least-squares")
     settings = chosen.options({})
-    start = time.perf_counter()
     with threadpool_limits(1, "blas"):
         for trace in traces:
             chosen.call([trace], model, **settings)
-    return read, time.perf_counter() - start
+    end = clock()
+    return {"read": (read[0] - start[0], read[1] - start[1]), "identify": (end[0] - read[0], end[1] - read[1])}
 
 
 def main() -> None:
@@ -92,16 +96,18 @@ def main() -> None:
     args = parser.parse_args()
     folder = build(args.folder or Path(tempfile.gettempdir()) / f"structbench-ch3-{args.repetitions}",
                    args.repetitions)
-    print(f"load average before: {os.getloadavg()[0]:.1f} (2 other busy processes take a core from the workers)")
+    print(f"load average before: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (other busy processes "
+          "take cores from the workers: compare CPU times and ratios)")
     runs = {jobs: command(folder, jobs) for jobs in (1, 2)}
     for jobs, r in runs.items():
         print(f"structbench identify --jobs {jobs}: {r['wall']:.2f} s wall ({r['seconds']:.2f} s after the "
-              f"interpreter started), peak RSS main {r['main_mb']:.0f} MB"
+              f"interpreter started; CPU {r['cpu']:.2f} s in all processes), peak RSS main {r['main_mb']:.0f} MB"
               + (f", largest worker {r['worker_mb']:.0f} MB" if jobs > 1 else ""))
     print(f"speed-up jobs 2 / jobs 1: {runs[1]['wall'] / runs[2]['wall']:.2f}")
-    read, identify = split(folder)
-    print(f"split in one process: read {read:.2f} s ({1e3 * read / args.repetitions:.1f} ms per trace), "
-          f"identify {identify:.2f} s ({1e3 * identify / args.repetitions:.1f} ms per run)")
+    parts = split(folder)
+    print("split in one process: " + ", ".join(
+        f"{name} {wall:.2f} s wall, {cpu:.2f} s CPU ({1e3 * cpu / args.repetitions:.1f} ms per run)"
+        for name, (wall, cpu) in parts.items()))
     documents = [json.loads((folder / "results" / f"least-squares-speed-j{j}.json").read_text()) for j in (1, 2)]
     same = [d["runs"] for d in documents[:1]] == [d["runs"] for d in documents[1:]]
     print(f"results of --jobs 1 and --jobs 2 {'identical' if same else 'DIFFER'}; "
