@@ -4,7 +4,7 @@ h5py's high-level ``obj.attrs[name]`` costs some 15 calls into the library
 per attribute (about 40 us); a trace of 100 channels holds some 700
 attributes, so reading a folder of traces was mostly attribute overhead.
 Here the common types are read with h5py's low-level API (open, type,
-shape, read: about 10 us): scalar variable-length strings, scalar integers
+shape, read: about 15 us): scalar variable-length strings, scalar integers
 of at most 8 bytes (unsigned: fewer), scalar floats of at most 8 bytes, and
 arrays of native 8-byte integers or floats. Every other attribute goes
 through h5py's ``AttributeManager``. Either way the value is what
@@ -52,7 +52,7 @@ def _fast(attr: h5a.AttrID) -> tuple[bool, Any]:
         if not tid.is_variable_str() or shape != ():
             return False, None
         value = np.empty((), dtype=_VLEN_STR)
-        attr.read(value, mtype=_VLEN_STR_TYPE)  # raises on a shape or charset it cannot convert
+        attr.read(value, mtype=_VLEN_STR_TYPE)  # a conversion h5py cannot do raises: the general path then
         text = value[()]
         return True, text.decode("utf-8", "surrogateescape") if isinstance(text, bytes) else text
     if kind not in (h5t.TypeIntegerID, h5t.TypeFloatID):

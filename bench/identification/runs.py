@@ -88,12 +88,12 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
         raise IdentificationError(f"no such campaign folder {folder}", field="CAMPAIGN_DIR")
     chosen = method(method_name)
     settings = chosen.options(options or {})
-    traces = read_infos(folder)
-    resolved = resolve_model(model, traces, chosen)
-    runs = group_runs(traces, groups, tests, joint)
+    infos = read_infos(folder)
+    resolved = resolve_model(model, infos, chosen)
+    runs = group_runs(infos, groups, tests, joint)
     results = identify_runs([[t.path for t in run] for run in runs], chosen, resolved, settings, jobs, progress)
-    document = results_document(chosen.name, results, str(traces[0].attrs.get("campaign", "")),
-                                model or (resolved.name if resolved is not None else traces[0].structure),
+    document = results_document(chosen.name, results, str(infos[0].attrs.get("campaign", "")),
+                                model or (resolved.name if resolved is not None else infos[0].structure),
                                 {"group": list(groups) if groups else None,
                                  "test": list(tests) if tests else None, "joint": joint} | settings)
     path = write_results(result_path(folder, chosen.name, tag), document)
