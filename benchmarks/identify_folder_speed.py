@@ -7,14 +7,15 @@ The folder is built once through the FMU (``campaigns/ch3.toml``, its
 harmonic test) and kept in the temp dir. Measured in one run:
 
 1. the whole command (``structbench identify`` in a fresh interpreter: start
-   and imports included) with ``--jobs 1`` and ``--jobs 2``: wall time, CPU
-   time of all its processes, peak resident memory of the main process and
-   of the largest worker;
+   and imports included) with ``--jobs 1`` and ``--jobs 2``, interleaved,
+   ``--repeat`` times each: wall time (min and median: other load on a
+   shared machine only adds), CPU time of all its processes, peak resident
+   memory of the main process and of the largest worker;
 2. in this process, the split of ``--jobs 1``: reading the 100 traces
    (:func:`read_traces`) and identifying the 100 runs from memory;
 3. whether the two results files hold the same numbers.
 
-    python benchmarks/identify_folder_speed.py [--repetitions N] [--folder DIR]
+    python benchmarks/identify_folder_speed.py [--repetitions N] [--folder DIR] [--repeat K]
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ import argparse
 import dataclasses
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -93,17 +95,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=100)
     parser.add_argument("--folder", type=Path, help="campaign folder (default: in the temp dir)")
+    parser.add_argument("--repeat", type=int, default=3, help="timings of each command (default 3)")
     args = parser.parse_args()
     folder = build(args.folder or Path(tempfile.gettempdir()) / f"structbench-ch3-{args.repetitions}",
                    args.repetitions)
     print(f"load average before: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (other busy processes "
           "take cores from the workers: compare CPU times and ratios)")
-    runs = {jobs: command(folder, jobs) for jobs in (1, 2)}
-    for jobs, r in runs.items():
-        print(f"structbench identify --jobs {jobs}: {r['wall']:.2f} s wall ({r['seconds']:.2f} s after the "
-              f"interpreter started; CPU {r['cpu']:.2f} s in all processes), peak RSS main {r['main_mb']:.0f} MB"
-              + (f", largest worker {r['worker_mb']:.0f} MB" if jobs > 1 else ""))
-    print(f"speed-up jobs 2 / jobs 1: {runs[1]['wall'] / runs[2]['wall']:.2f}")
+    timed: dict[int, list[dict]] = {1: [], 2: []}
+    for _ in range(args.repeat):  # interleaved: a burst of other load hits both alike
+        for jobs, found in timed.items():
+            found.append(command(folder, jobs))
+    wall = {jobs: [r["wall"] for r in found] for jobs, found in timed.items()}
+    for jobs, found in timed.items():
+        print(f"structbench identify --jobs {jobs}: wall min {min(wall[jobs]):.2f} s, median "
+              f"{statistics.median(wall[jobs]):.2f} s of {args.repeat} (interpreter start and imports included); "
+              f"CPU median {statistics.median(r['cpu'] for r in found):.2f} s in all processes; peak RSS main "
+              f"{max(r['main_mb'] for r in found):.0f} MB"
+              + (f", largest worker {max(r['worker_mb'] for r in found):.0f} MB" if jobs > 1 else ""))
+    print(f"speed-up jobs 2 / jobs 1 (medians): {statistics.median(wall[1]) / statistics.median(wall[2]):.2f}")
     parts = split(folder)
     print("split in one process: " + ", ".join(
         f"{name} {wall:.2f} s wall, {cpu:.2f} s CPU ({1e3 * cpu / args.repetitions:.1f} ms per run)"
