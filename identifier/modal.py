@@ -3,14 +3,20 @@ stochastic subspace identification (SSI-cov) with automatic order selection.
 
 Steps (each its own module):
 1. lagged output covariances ``R_l = <y_{k+l} y_ref,k^T>``, l >= 1, summed per
-   sample group (:mod:`identifier.ssi_covariance`); white sensor noise only
-   enters ``R_0``, which is not used;
-2. block Hankel matrix of ``p`` block rows, its leading singular vectors, and
-   the poles ``s = ln(mu(A)) / dt`` of every model order 2, 4, ..., ``max_order``
-   (:mod:`identifier.ssi_poles`): ``omega = |s|`` rad/s, ``zeta = -Re s / |s|``,
-   complex shapes ``C psi``;
-3. stabilisation across orders and clustering of the stable poles into modes
-   (:mod:`identifier.stabilisation`);
+   sample group by FFT (:mod:`identifier.ssi_covariance`); white sensor noise
+   only enters ``R_0``, which is not used. Lags 1 .. p + q - 1 with ``p`` block
+   rows and ``q`` block columns chosen from the data
+   (:mod:`identifier.ssi_design`: the record length, free decay or not, the
+   lowest frequency the response carries, the channel count);
+2. block Hankel matrix of the covariances, on at most 20 principal row
+   channels; its leading singular vectors by subspace iteration with products
+   by FFT (:mod:`identifier.ssi_hankel`), and the poles ``s = ln(mu(A)) / dt``
+   of every model order 2, 4, ..., ``max_order`` (:mod:`identifier.ssi_poles`):
+   ``omega = |s|`` rad/s, ``zeta = -Re s / |s|``, complex shapes ``C psi`` on
+   every channel (``C`` from the first block row of all channels,
+   ``[R_1 .. R_q] V S^-1``);
+3. stabilisation across orders and clustering of the stable poles into modes,
+   estimated over the lower half of their orders (:mod:`identifier.stabilisation`);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
@@ -22,8 +28,12 @@ no force channel is needed or used. Several traces of one run (several
 impulse tests, say) add their covariances, which is how two tests separate
 a pair of close modes that one test moves as a single shape. Output-only
 data cannot scale the shapes (they come normalised to max |.| = 1) and cannot
-see a mode that no sensor moves in; with fewer samples than ``20 (p + q)`` or a
-mode with under about one period in the record it fails or misses that mode.
+see a mode that no sensor moves in (nor, with more than 20 channels, one the
+20 principal directions miss: a mode far weaker than 20 others); with fewer
+samples than ``20 (p + q)`` or a mode with under about one period in the
+record it fails or misses that mode. In a stationary record the lags span
+half a period of the lowest frequency carrying 2 % of the power (within
+``n / 20``): a mode well below it, weak in the response, may be missed.
 """
 from __future__ import annotations
 
@@ -37,8 +47,10 @@ from structbench.models import Model
 from .errors import IdentificationError
 from .modal_uncertainty import jackknife
 from .results import Identification
-from .ssi_covariance import covariances, hankel
-from .ssi_poles import Poles, leading_svd, mpc, poles_at, real_shapes, subspace
+from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
+from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency
+from .ssi_hankel import BlockHankel, leading_svd
+from .ssi_poles import Poles, Subspace, mpc, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, select_modes
 from .traces import Channel, Trace
 
@@ -71,17 +83,6 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
     return records, channels, first.dt
 
 
-def auto_block_rows(m: int) -> int:
-    """Default block rows ``p``: 200, fewer for many channels (p m <= 4000), at least 12."""
-    return int(min(200, max(12, 4000 // m)))
-
-
-def auto_block_columns(rows: int, references: int, max_order: int) -> int:
-    """Default block columns: a quarter of the rows (lags 1 .. 1.25 p), at least
-    enough for 1.5 x ``max_order`` columns."""
-    return int(max(rows // 4, -(-3 * max_order // (2 * references)), 2))
-
-
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
              min_fraction: float = 0.3, drop_unrepeated: bool = True) -> Identification:
@@ -92,39 +93,45 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     do not)."""
     records, channels, dt = sensor_records(traces, quantity)
     m = records[0].shape[0]
-    p = block_rows or auto_block_rows(m)
     r = min(references, m)
-    if p < 2 or max_order < 2 or segments < 2 or references < 1:
+    if (block_rows is not None and block_rows < 2) or max_order < 2 or segments < 2 or references < 1:
         raise IdentificationError("block_rows, max_order and segments must be at least 2, references at least 1",
                                   field="options")
-    q = auto_block_columns(p, r, max_order)
-    order_cap = min(max_order, q * r)
     shortest = min(y.shape[1] for y in records)
+    mo = min(m, max(ROW_CHANNELS, r))
+    refs = reference_channels(m, r)
+    decay = all(is_free_decay(y / np.maximum(np.std(y, axis=1, keepdims=True), np.finfo(float).tiny))
+                for y in records)
+    p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay,
+                       0.0 if decay else lowest_frequency(records, dt, refs), block_rows)
+    order_cap = min(max_order, q * r, p * mo - mo)
     if shortest < 20 * (p + q):
         raise IdentificationError(f"{traces[0].path.name}: {shortest} samples are too few for {p} block rows "
                                   f"(need at least 20 x (rows + columns) = {20 * (p + q)}); give fewer "
                                   f"block rows or a longer record", field="block_rows")
     cov = covariances(records, dt, p + q - 1, r, segments)
+    full = cov.mean()
+    W = row_projection(full, mo)
     with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
-        U = leading_svd(hankel(cov.mean(), p, q), order_cap)
-        space = subspace(U, m)
+        U, s, V = leading_svd(BlockHankel(project(full, W), p, q), order_cap, power=1)
+        rows = subspace(U, mo)
+        space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction))
         by_order = {pl.order: pl for pl in poles}
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
-        omega_se, zeta_se, missed = jackknife(cov, (p, q), U, [(_spread(md), md.omega, shapes[:, k])
-                                                               for k, md in enumerate(modes)])
+        omega_se, zeta_se, missed = jackknife(cov, W, (p, q), U, by_order,
+                                              [(_spread(md.used), md.omega) for md in modes])
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
-    rows = real_shapes(shapes)
     return Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
-        omega=omega.tolist(), eigenvalues=(omega**2).tolist(), mode_shapes=rows.T.tolist(),
+        omega=omega.tolist(), eigenvalues=(omega**2).tolist(), mode_shapes=real_shapes(shapes).T.tolist(),
         sensors=[c.name for c in channels],
         damping=zeta.tolist(), omega_std=omega_se.tolist(), damping_std=zeta_se.tolist(),
         mpc=mpc(shapes).tolist(),
@@ -135,11 +142,12 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "stabilisation": _diagram(poles, flags)})
 
 
-def _spread(mode, count: int = 5) -> tuple[int, ...]:
-    """Up to ``count`` model orders spread over those of a mode's stable poles
-    (the jackknife replicates repeat the median over these)."""
-    orders = sorted({n for n, _ in mode.members})
-    return tuple(orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int)))
+def _spread(members: tuple[tuple[int, int], ...], count: int = 6) -> tuple[tuple[int, int], ...]:
+    """A mode's stable poles at up to ``count`` model orders spread over its
+    orders (the jackknife replicates repeat the median over these)."""
+    orders = sorted({n for n, _ in members})
+    keep = {orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))}
+    return tuple(pair for pair in members if pair[0] in keep)
 
 
 def _diagram(poles: list[Poles], flags: list[np.ndarray]) -> dict[str, list]:

@@ -2,67 +2,127 @@
 delete-one-group jackknife.
 
 The covariance sums are kept per sample group (``G`` groups,
-:mod:`identifier.ssi_covariance`). Replicate ``g`` repeats the identification
-from the covariances of every group but ``g`` at up to five model orders
-spread over those that support each mode, picks at each the pole nearest the mode (frequency within
-5 %, MAC > 0.8) and takes the medians, as the full-data estimate does. With
-``theta_g`` the replicates and ``theta_.`` their mean,
+:mod:`identifier.ssi_covariance`); replicate ``g`` repeats the identification
+from every group but ``g``. Its subspace is one step of subspace iteration
+from the full data's leading left singular vectors ``U``: ``Q_g = orth(H_g
+H_g^T U)`` column by column, so that its first ``n`` columns span the
+replicate's subspace of order ``n`` (two Hankel products by FFT for all
+replicates at once, :mod:`identifier.ssi_hankel`, and a QR each). At order
+``n`` the basis ``Q_n T^-1``, ``T = U_n^T Q_n``, is the one nearest ``U_n``; its
+``M_g = T G_g^-1 K_g T^-1`` (:mod:`identifier.ssi_poles`) is near the full
+data's ``M = Psi diag(mu) Psi^-1``, and with ``W = Psi^-1 (M_g - M) Psi`` each
+pole ``k`` of a mode moves, to first order, to
+
+    mu_k + W_kk,     psi_k + sum_(i != k) psi_i W_ik / (mu_k - mu_i)
+
+(no eigen-decomposition per replicate). A mode is found again at an order
+when its pole stays within 5 % of the mode's frequency with MAC > 0.8 to the
+full data's shape; the replicate takes the medians over the orders of the
+mode's stable poles, as the full-data estimate does, when it is found at at
+least half of them. With ``theta_g`` the replicates and ``theta_.`` their
+mean,
 
     se^2 = (G - 1) / G sum_g (theta_g - theta_.)^2     (Quenouille-Tukey).
 
 Assumes the groups' noise contributions are nearly independent: contiguous
 segments longer than the response's correlation time (stationary records) or
-interleaved blocks longer than the lags (free decay). With few groups the
+interleaved blocks as long as the lags (free decay). Noise modes move far
+(small gaps between poles) and are not found again. With few groups the
 estimate has ``G - 1`` degrees of freedom; a mode not found in some replicate
 gets NaN (no error stated): in a free decay a mode that has died out within
 the first block of samples is seen by one group only.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
+import scipy.linalg as la
 
-from .ssi_covariance import Covariances, hankel
-from .ssi_poles import Poles, leading_svd, mac_matrix, poles_at, subspace
+from .ssi_covariance import Covariances, project
+from .ssi_hankel import BlockHankel
+from .ssi_poles import Poles
 
-Target = tuple[tuple[int, ...], float, np.ndarray]  # (model orders, omega rad/s, complex shape (m,))
-
-
-def _replicate(cov: Covariances, group: int, rows: tuple[int, int], start: np.ndarray, targets: list[Target]) -> np.ndarray:
-    """(k, 2): omega and zeta of each target mode in one replicate, medians
-    over the mode's orders of the matching poles (NaN if found in fewer than
-    half of them); its singular vectors by one subspace step from the full
-    data's ``start``."""
-    m = cov.sums.shape[2]
-    space = subspace(leading_svd(hankel(cov.mean(leave_out=group), *rows), start.shape[1], start), m)
-    poles = {n: poles_at(space, n, cov.dt, cov.scale) for n in sorted({n for t in targets for n in t[0]})}
-    out = np.full((len(targets), 2), np.nan)
-    for k, (orders, omega, shape) in enumerate(targets):
-        found = [_match(poles[n], omega, shape) for n in orders]
-        found = [f for f in found if f is not None]
-        if 2 * len(found) >= len(orders):
-            out[k] = np.median(found, axis=0)
-    return out
+Target = tuple[tuple[tuple[int, int], ...], float]  # the mode's stable poles (order, index), its omega rad/s
 
 
-def _match(poles: Poles, omega: float, shape: np.ndarray) -> tuple[float, float] | None:
-    """(omega, zeta) of the pole within 5 % of ``omega`` with the best MAC (> 0.8) to ``shape``."""
-    near = np.abs(poles.omega - omega) / omega < 0.05
-    if not near.any():
-        return None
-    score = np.where(near, mac_matrix(shape[:, None], poles.shapes)[0], -1.0)
-    j = int(np.argmax(score))
-    return (poles.omega[j], poles.zeta[j]) if score[j] > 0.8 else None
+def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np.ndarray, dt: float
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """omega, zeta and MAC to the full data's shape (G, t) of the poles
+    ``picks`` (indices into ``poles.omega``) of one order in every replicate
+    (``space``: stacked Gram, shift, ``U^T Q`` and first block rows of the
+    replicates' bases ``Q``), to first order from the full data's
+    eigen-decomposition; shapes in the Hankel's row channels. Poles that mix
+    with ``psi_k`` by more than 0.3 (``|W_ik| > 0.3 |mu_k - mu_i|``: a pair closer
+    than the data can separate, or the conjugate of a slow pole) are left out
+    of its shape's change: the pole is found again when the plane of the
+    pair is."""
+    gram, shift, align, top = space
+    n, rows = poles.order, top.shape[1]
+    cols = poles.index[picks]
+    psi, mu0 = poles.vectors[:, cols], poles.mu[cols]
+    T = align[:, :n, :n]
+    W = poles.inverse @ (T @ np.linalg.solve(gram[:, :n, :n], shift[:, :n, :n] @ np.linalg.solve(T, psi)))
+    own = (slice(None), cols, np.arange(cols.size))
+    W[own] -= mu0
+    mu = mu0 + W[own]
+    gap = mu0[None, :] - poles.mu[:, None]
+    gap[cols, np.arange(cols.size)] = np.inf
+    mix = W / gap
+    mix[np.abs(mix) > 0.3] = 0.0
+    moved = top[:, :, :n] @ np.linalg.solve(T, psi + poles.vectors @ mix)
+    mac = _mac(U[:rows, :n] @ psi, moved)
+    s = np.log(mu) / dt
+    return np.abs(s), -s.real / np.abs(s), mac
 
 
-def jackknife(cov: Covariances, rows: tuple[int, int], start: np.ndarray, targets: list[Target]
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """MAC between matching columns of complex shapes ``a`` (m, t) and ``b`` (..., m, t)."""
+    return np.abs(np.sum(a.conj() * b, -2)) ** 2 / np.sum(np.abs(a) ** 2, -2) / np.sum(np.abs(b) ** 2, -2)
+
+
+def _bases(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray
+           ) -> tuple[np.ndarray, ...]:
+    """Stacked over the replicates: Gram ``Q_up^T Q_up``, shift ``Q_up^T Q_down``,
+    ``U^T Q`` (G, N, N) and first block rows (G, rows, N) of their bases ``Q``
+    (two replicates at a time: FFT and LAPACK release the GIL)."""
+    rows = U.shape[0] // blocks[0]
+    hankels = [BlockHankel(project(cov.mean(leave_out=g), W), *blocks) for g in range(cov.sums.shape[0])]
+    Uf = hankels[0].transform(U, blocks[0])
+
+    def basis(H: BlockHankel) -> tuple[np.ndarray, ...]:
+        Q = la.qr(H @ H.rmatmul(U, Uf), mode="economic", overwrite_a=True)[0]
+        last = Q[-rows:]
+        return np.eye(U.shape[1]) - last.T @ last, Q[:-rows].T @ Q[rows:], U.T @ Q, Q[:rows]
+
+    with ThreadPoolExecutor(2) as pool:
+        parts = list(pool.map(basis, hankels))
+    return tuple(np.stack(x) for x in zip(*parts))
+
+
+def jackknife(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray,
+              poles: dict[int, Poles], targets: list[Target]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard errors (k,) of omega (rad/s) and zeta of the target modes
-    (``rows`` block rows and columns; ``start`` the full data's leading
-    singular vectors), NaN for a mode missing from a replicate; and how many
-    replicates missed each mode (k,)."""
+    (``W`` the row channels' projection or None, ``blocks`` the Hankel's
+    block rows and columns, ``U`` (p m, N) the full data's leading left
+    singular vectors, ``poles`` its poles by order), NaN for a mode missing
+    from a replicate; and how many replicates missed each mode (k,)."""
     if not targets:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
     groups = cov.sums.shape[0]
-    reps = np.stack([_replicate(cov, g, rows, start, targets) for g in range(groups)])
+    U = U[:, :max(n for members, _ in targets for n, _ in members)]
+    space = _bases(cov, W, blocks, U)
+    found: list[list[list[tuple[float, float]]]] = [[[] for _ in targets] for _ in range(groups)]
+    for n in sorted({n for members, _ in targets for n, _ in members}):
+        which = [(k, j) for k, (members, _) in enumerate(targets) for order, j in members if order == n]
+        omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), cov.dt)
+        w0 = np.array([targets[k][1] for k, _ in which])
+        for g, c in zip(*np.nonzero((np.abs(omega - w0) < 0.05 * w0) & (mac > 0.8))):
+            found[g][which[c][0]].append((omega[g, c], zeta[g, c]))
+    reps = np.full((groups, len(targets), 2), np.nan)
+    for g in range(groups):
+        for k, (members, _) in enumerate(targets):
+            if found[g][k] and 2 * len(found[g][k]) >= len(members):
+                reps[g, k] = np.median(found[g][k], axis=0)
     se = np.sqrt((groups - 1) / groups * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
     return se[:, 0], se[:, 1], np.sum(np.isnan(reps[:, :, 0]), axis=0)

@@ -1,5 +1,5 @@
-"""Output covariances at non-zero lags and their block Hankel matrix, for
-covariance-driven stochastic subspace identification (SSI-cov).
+"""Output covariances at non-zero lags, for covariance-driven stochastic
+subspace identification (SSI-cov), and the principal row channels.
 
 For outputs ``y_k`` (m,) and reference outputs ``y_ref,k`` (r,) of a linear
 system ``x_{k+1} = A x_k + w_k``, ``y_k = C x_k + v_k`` driven by white noise
@@ -15,15 +15,20 @@ adds variance but no bias. The block Hankel matrix
     H = [[R_1, R_2, ..., R_q], [R_2, ..., R_{q+1}], ..., [R_p, ..., R_{p+q-1}]]
 
 (p m x q r) factors as ``O Gamma`` with the observability matrix ``O = [C; C A;
-...; C A^(p-1)]``, which is what :mod:`identifier.ssi_poles` extracts.
+...; C A^(p-1)]``, which is what :mod:`identifier.ssi_poles` extracts
+(products with ``H`` by FFT: :mod:`identifier.ssi_hankel`).
 
 The sums are kept per group of samples (the sample index ``k`` of the
 reference), so that the identification can be repeated with one group left
 out (jackknife, :mod:`identifier.modal_uncertainty`): ``groups`` contiguous
-segments for stationary records, or interleaved blocks of L samples
+segments for stationary records, or interleaved blocks of L / 2 samples
 (each group then spans the whole record) for free decays, whose signal is
 concentrated at the start. Channels are divided by their RMS first so that
 sensors of different size weigh alike; shapes are scaled back by the caller.
+With many channels the Hankel matrix's rows use the leading principal
+directions of the lagged covariances (:func:`row_projection`) instead of the
+channels: they carry every mode the channels see, and the white sensor
+noise of the other directions is left out.
 Fails (by design) to see a mode whose shape vanishes at every reference
 channel, and modes with less than about one period within the record.
 """
@@ -32,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft as sfft
 
 
 @dataclass(frozen=True)
@@ -67,13 +73,18 @@ def reference_channels(m: int, count: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, m - 1, count)).astype(int))
 
 
+def decay_block(lags: int) -> int:
+    """Samples per interleaved block of a free decay's groups: half the lag span."""
+    return max(-(-lags // 2), 1)
+
+
 def group_labels(n: int, groups: int, lags: int, decay: bool) -> np.ndarray:
     """Group index (n,) of every sample: contiguous segments, or for a free
-    decay interleaved blocks of ``lags`` samples (block b in group b mod groups)."""
+    decay interleaved blocks of :func:`decay_block` samples (block b in group
+    b mod groups)."""
     if not decay:
         return np.minimum(np.arange(n) * groups // n, groups - 1)
-    block = max(lags, 1)
-    return (np.arange(n) // block) % groups
+    return (np.arange(n) // decay_block(lags)) % groups
 
 
 def is_free_decay(y: np.ndarray) -> bool:
@@ -84,38 +95,80 @@ def is_free_decay(y: np.ndarray) -> bool:
     return bool(first > 10.0 * last)
 
 
+def _runs(labels: np.ndarray, piece: int) -> list[tuple[int, int, int]]:
+    """(start, stop, group) of the runs of equal ``labels``, cut into pieces of at most ``piece`` samples."""
+    edges = np.r_[0, np.flatnonzero(np.diff(labels)) + 1, labels.size]
+    return [(a, min(a + piece, b), int(labels[a])) for a, b in zip(edges[:-1], edges[1:])
+            for a in range(a, b, piece)]
+
+
 def covariances(records: list[np.ndarray], dt: float, lags: int, references: int, groups: int) -> Covariances:
     """Lagged covariance sums (see :class:`Covariances`) of one or more
     records (each (m, n_i), same channels, sampling interval ``dt`` s), for
-    lags 1..``lags``; several records add up as independent tests."""
+    lags 1..``lags``; several records add up as independent tests.
+
+    Computed by FFT, segment by segment: for a piece of ``S`` reference
+    samples starting at ``a``, ``sum_k y_{a+k+l} y_ref,a+k^T`` for every lag
+    ``l <= L`` is the inverse FFT (length ``F >= S + L``, no wrap-around) of
+    ``Y(f) conj(Y_ref(f))^T``, the spectra of the ``S + L`` samples ahead and of
+    the zero-padded reference piece; the cross spectra add over a group's
+    pieces before one inverse FFT. About ``8 m r n`` flops plus the FFTs,
+    against ``2 L m r n`` lag by lag."""
     m = records[0].shape[0]
-    scale = np.sqrt(np.mean(np.concatenate([y**2 for y in records], axis=1), axis=1))
+    total = sum(np.einsum("ij,ij->i", y, y) for y in records)
+    scale = np.sqrt(total / sum(y.shape[1] for y in records))
     scale = np.where(scale > 0, scale, 1.0)
     refs = reference_channels(m, references)
     sums = np.zeros((groups, lags, m, refs.size))
     counts = np.zeros((groups, lags))
     for y in records:
-        z = y / scale[:, None]
-        usable = z.shape[1] - lags  # the same reference samples k for every lag keep R_l = C A^(l-1) G exact
-        labels = group_labels(usable, groups, lags, is_free_decay(z))
+        usable = y.shape[1] - lags  # the same reference samples k for every lag keep R_l = C A^(l-1) G exact
+        decay = is_free_decay(y / scale[:, None])
+        piece = decay_block(lags) if decay else max(lags, 4096)
+        size = sfft.next_fast_len(piece + lags + 1, real=True)
+        runs = _runs(group_labels(usable, groups, lags, decay), piece)
         for g in range(groups):
-            k = np.flatnonzero(labels == g)
-            if k.size == 0:
-                continue
-            contiguous = k[-1] - k[0] + 1 == k.size
-            ref = z[refs, k[0]:k[-1] + 1] if contiguous else z[refs][:, k]
-            for lag in range(1, lags + 1):
-                ahead = z[:, k[0] + lag:k[-1] + 1 + lag] if contiguous else z[:, k + lag]
-                sums[g, lag - 1] += ahead @ ref.T
-            counts[g] += k.size
+            mine = [(a, b) for a, b, h in runs if h == g]
+            if mine:
+                sums[g] += _lagged_sums(y, scale, refs, mine, lags, size)
+                counts[g] += sum(b - a for a, b in mine)
     return Covariances(sums, counts, scale, refs, dt)
 
 
-def hankel(R: np.ndarray, rows: int, columns: int | None = None) -> np.ndarray:
-    """Block Hankel matrix (rows m, columns r) of ``R`` (>= rows + columns - 1
-    lags, m, r): block (i, j) = ``R[i + j]`` (that is R_{i+j+1}); ``columns``
-    defaults to ``rows``."""
-    _, m, r = R.shape
-    columns = columns or rows
-    idx = np.arange(rows)[:, None] + np.arange(columns)[None, :]
-    return R[idx].transpose(0, 2, 1, 3).reshape(rows * m, columns * r)
+def _lagged_sums(y: np.ndarray, scale: np.ndarray, refs: np.ndarray, pieces: list[tuple[int, int]],
+                 lags: int, size: int) -> np.ndarray:
+    """``sum over pieces, k in [a, b) of z_{k+l} z_ref,k^T`` (lags, m, r) of the
+    standardised record ``z = y / scale`` by FFTs of length ``size``, a few
+    pieces at a time (about 2 million samples)."""
+    m = y.shape[0]
+    cross = np.zeros((m, refs.size, size // 2 + 1), dtype=complex)
+    batch = max(1, 2_000_000 // (m * size))
+    for i in range(0, len(pieces), batch):
+        chunk = pieces[i:i + batch]
+        ahead = np.zeros((len(chunk), m, size))
+        for s, (a, b) in enumerate(chunk):
+            ahead[s, :, :b - a + lags] = y[:, a:b + lags]
+        ahead /= scale[:, None]
+        ref = ahead[:, refs]
+        for s, (a, b) in enumerate(chunk):
+            ref[s, :, b - a:] = 0.0
+        cross += np.einsum("saf,scf->acf", sfft.rfft(ahead, axis=2), sfft.rfft(ref, axis=2).conj(), optimize=True)
+    return sfft.irfft(cross, n=size, axis=2)[:, :, 1:lags + 1].transpose(2, 0, 1)
+
+
+def row_projection(R: np.ndarray, count: int) -> np.ndarray | None:
+    """The ``count`` principal directions (m, count) of the lagged covariances
+    ``R`` (L, m, r): the leading eigenvectors of ``sum_l R_l R_l^T``, the
+    channel combinations that carry the structural response (white sensor
+    noise, absent from ``R_l``, l >= 1, adds nothing there). ``None`` (every
+    channel) when ``count >= m``."""
+    m = R.shape[1]
+    if count >= m:
+        return None
+    flat = R.transpose(1, 0, 2).reshape(m, -1)
+    return np.linalg.eigh(flat @ flat.T)[1][:, ::-1][:, :count]
+
+
+def project(R: np.ndarray, W: np.ndarray | None) -> np.ndarray:
+    """``W^T R_l`` (L, k, r) for every lag, or ``R`` itself when ``W`` is None."""
+    return R if W is None else np.einsum("mk,lmr->lkr", W, R)

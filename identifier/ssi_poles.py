@@ -1,7 +1,7 @@
 """Poles and mode shapes of SSI-cov at a range of model orders.
 
 With the SVD ``H = U S V^T`` of the block Hankel matrix
-(:func:`identifier.ssi_covariance.hankel`), order ``n`` keeps the ``n``
+(:mod:`identifier.ssi_hankel`), order ``n`` keeps the ``n``
 largest singular values: ``O_n = U_n S_n^(1/2)``, ``C = O_n[:m]`` and ``A``
 from the shift structure ``O_n[m:] = O_n[:-m] A`` (least squares). The
 eigenvalues ``mu`` of ``A`` give the continuous poles ``s = ln(mu) / dt``,
@@ -23,48 +23,59 @@ import scipy.linalg as la
 class Poles:
     """The poles of one model order: ``omega`` (k,) rad/s, ``zeta`` (k,),
     ``shapes`` (m, k) complex, scaled back to the channels' units, each column
-    of unit norm."""
+    of unit norm; and the whole eigen-decomposition ``M = Psi diag(mu) Psi^-1``
+    of the order's ``M = G_n^-1 K_n`` that they come from (for the
+    jackknife's perturbation): ``mu`` (n,), ``vectors`` ``Psi`` (n, n),
+    ``inverse`` ``Psi^-1`` (its rows the left eigenvectors, ``chi_i^H psi_j =
+    delta_ij``) and ``index`` (k,) of each kept pole in ``mu``."""
 
     order: int
     omega: np.ndarray
     zeta: np.ndarray
     shapes: np.ndarray
+    mu: np.ndarray
+    vectors: np.ndarray
+    inverse: np.ndarray
+    index: np.ndarray
 
 
 @dataclass(frozen=True)
 class Subspace:
-    """What every model order needs from the Hankel SVD ``H = U S V^T``: the
-    first block row of ``U`` (m, N) and the Gram matrices ``G = U_up^T U_up``,
-    ``K = U_up^T U_down`` (N, N) of its shifted parts (``U_up`` without the last
-    block row, ``U_down`` without the first)."""
+    """What every model order needs from a basis ``B`` (p m, N) of the
+    leading left singular subspace of the Hankel matrix: its first block row
+    (m, N) and the Gram matrices ``G = B_up^T B_up``, ``K = B_up^T B_down``
+    (N, N) of its shifted parts (``B_up`` without the last block row,
+    ``B_down`` without the first)."""
 
     top: np.ndarray
     gram: np.ndarray
     shift: np.ndarray
 
 
-def subspace(U: np.ndarray, m: int) -> Subspace:
-    """:class:`Subspace` of the leading left singular vectors ``U`` (p m, N)."""
-    up, down = U[:-m], U[m:]
-    return Subspace(U[:m], up.T @ up, up.T @ down)
+def subspace(B: np.ndarray, m: int) -> Subspace:
+    """:class:`Subspace` of a basis ``B`` (p m, N), in order: column ``n``
+    extends the subspace of order ``n - 1``."""
+    up, down = B[:-m], B[m:]
+    return Subspace(B[:m], up.T @ up, up.T @ down)
 
 
 def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles:
     """Poles of model order ``order`` (``dt`` s; ``scale`` (m,) the channel RMS
     that standardised the outputs). With ``O = U_n S_n^(1/2)`` the least-squares
     ``A = pinv(O_up) O_down = S^(-1/2) G_n^(-1) K_n S^(1/2)``, so the poles are
-    the eigenvalues of ``G_n^(-1) K_n`` and the shapes ``C psi_A = U_top,n psi``."""
+    the eigenvalues of ``M = G_n^(-1) K_n`` and the shapes ``C psi_A = U_top,n psi``
+    (any basis of the same span gives the same poles and shapes)."""
     n = order
-    mu, psi = la.eig(la.solve(space.gram[:n, :n], space.shift[:n, :n], assume_a="pos"))
-    upper = mu.imag > 0
-    mu, psi = mu[upper], psi[:, upper]
-    sc = np.log(mu) / dt
+    mu, psi = np.linalg.eig(la.solve(space.gram[:n, :n], space.shift[:n, :n], assume_a="pos"))
+    keep = np.flatnonzero(mu.imag > 0)
+    sc = np.log(mu[keep]) / dt
     omega = np.abs(sc)
     zeta = -sc.real / omega
-    shapes = (space.top[:, :n] @ psi) * scale[:, None]
+    shapes = (space.top[:, :n] @ psi[:, keep]) * scale[:, None]
     shapes /= np.linalg.norm(shapes, axis=0)
     ascending = np.argsort(omega)
-    return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending])
+    return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending], mu, psi, np.linalg.inv(psi),
+                 keep[ascending])
 
 
 def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -93,22 +104,3 @@ def real_shapes(shapes: np.ndarray) -> np.ndarray:
     rotated = (shapes * np.exp(-1j * theta)).real
     peak = rotated[np.argmax(np.abs(rotated), axis=0), np.arange(rotated.shape[1])]
     return rotated / np.where(peak == 0, 1.0, peak)
-
-
-def leading_svd(H: np.ndarray, count: int, start: np.ndarray | None = None,
-                power: int = 2) -> np.ndarray:
-    """The ``count`` leading left singular vectors (rows, count) of ``H`` by
-    subspace iteration (Halko, Martinsson and Tropp 2011): ``power`` steps
-    from ``H`` times a fixed-seed Gaussian probe (``count + 10`` columns), or
-    from ``start`` (rows, >= count), the vectors of a nearby matrix (one step).
-    The full SVD for small matrices."""
-    if start is None and count + 10 >= min(H.shape) // 2:
-        return la.svd(H, full_matrices=False, lapack_driver="gesdd")[0][:, :count]
-    if start is None:
-        Q = la.qr(H @ np.random.default_rng(0).standard_normal((H.shape[1], count + 10)), mode="economic")[0]
-    else:
-        Q, power = start, 1
-    for _ in range(power):
-        Q = la.qr(H @ (H.T @ Q), mode="economic")[0]
-    Ub = la.svd(Q.T @ H, full_matrices=False)[0]
-    return (Q @ Ub)[:, :count]

@@ -14,8 +14,10 @@ mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
 one shape never yields two modes. A cluster is a mode when its poles come
 from at least ``min_fraction`` of the orders; its frequency and damping ratio
-are the medians over its poles, its shape that of the pole nearest the median
-frequency. Clusters closer than ``freq_tol`` with shapes
+are the medians over its poles in the lower half of its orders, its shape
+that of the pole nearest the median frequency among them. (Orders well
+above the structure's own fit noise too: there a noise pole near a mode
+shares its shape and pulls its damping, mostly down, in random data.) Clusters closer than ``freq_tol`` with shapes
 of MAC above ``mac_min`` are one mode (the larger cluster is kept).
 Fails when a mode is stable in too few orders (very weak or very close to
 a stronger mode): it is then not reported.
@@ -44,11 +46,13 @@ class Criteria:
 class Mode:
     """One selected mode: its representative pole (order, index in that
     order's :class:`Poles`), the stable poles that support it ((order, index)
-    pairs) and its estimates, the medians over them: ``omega`` rad/s, ``zeta``."""
+    pairs), those of them in the lower half of its orders (``used``) and its
+    estimates, the medians over these: ``omega`` rad/s, ``zeta``."""
 
     order: int
     index: int
     members: tuple[tuple[int, int], ...]
+    used: tuple[tuple[int, int], ...]
     omega: float
     zeta: float
 
@@ -108,10 +112,13 @@ def select_modes(poles: list[Poles], criteria: Criteria) -> tuple[list[Mode], li
     for c in _clusters(poles, flags, criteria):
         if len({i for i, _ in c}) < need:
             continue
-        omega = np.array([poles[i].omega[j] for i, j in c])
-        zeta = np.array([poles[i].zeta[j] for i, j in c])
-        i, j = c[int(np.argmin(np.abs(omega - np.median(omega))))]
+        orders = sorted({i for i, _ in c})
+        low = [(i, j) for i, j in c if i <= orders[(len(orders) - 1) // 2]]
+        omega = np.array([poles[i].omega[j] for i, j in low])
+        zeta = np.array([poles[i].zeta[j] for i, j in low])
+        i, j = low[int(np.argmin(np.abs(omega - np.median(omega))))]
         modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
+                          tuple((poles[a].order, int(b)) for a, b in low),
                           float(np.median(omega)), float(np.median(zeta))))
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
 

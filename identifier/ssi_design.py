@@ -1,0 +1,66 @@
+"""Default sizes of the SSI-cov Hankel matrix, from the data: lag span,
+block rows and block columns.
+
+What the lag span must do depends on the record. In a free decay the poles
+are deterministic and only sensor noise blurs them: the longer the span of
+the block rows, the more of the decay the shift structure ``O_down = O_up A``
+fits and the smaller the error (for a slow mode roughly as ``p^-3/2``), so
+the lags use as much of the record as the covariance estimates allow. In a
+stationary response to random excitation the finite record itself limits
+the accuracy (a relative frequency error of about ``sqrt(zeta / (omega T))``
+whatever the method) and longer rows do not help; but the lags must span a
+good fraction of a period of the lowest mode the response carries (a sixth
+of the period missed it in tests, a quarter found it), which with fine
+sampling is more lags than rows can afford. A free response that does not
+decay (an undamped structure) is not told apart from a stationary one; it
+gets the longer of the two spans.
+
+The span ``p + q`` of lags 1 .. p + q - 1 is at most ``n / 20`` (every
+lagged product averages at least 95 % of the record) and at most
+``LAG_BUDGET / (m r)`` (the per-group covariance sums, ``groups x L x m x r``
+numbers, stay below about 250 MB). The block rows ``p`` are the costly
+dimension (the subspace, its QR and the Gram matrices grow with ``p x row
+channels``): ``p <= ROW_BUDGET / row channels`` and at most 4/5 of that
+longest span. The columns ``q`` are a quarter of the rows; unless every
+record is a free decay they extend the span to half a period of ``f_low``,
+the frequency below which 2 % of the reference channels' power lies (Welch
+spectrum), where that is longer (products with the Hankel matrix are FFTs
+over the lag axis and cost little more for more columns); and they are at
+least ``1.5 max_order / r``, so that every model order has columns enough.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import welch
+
+ROW_BUDGET = 4000  # block rows x row channels
+ROW_CHANNELS = 20  # at most this many (principal) row channels, as many as the references
+LAG_BUDGET = 4_000_000  # lags x channels x references (8 groups of sums: about 250 MB)
+
+
+def lowest_frequency(records: list[np.ndarray], dt: float, refs: np.ndarray) -> float:
+    """``f_low`` Hz: the frequency below which 2 % of the power of the
+    standardised reference channels lies (Welch spectra, segments of up to
+    8192 samples, mean removed), over all records."""
+    power = 0.0
+    for y in records:
+        z = y[refs] / np.maximum(np.std(y[refs], axis=1, keepdims=True), np.finfo(float).tiny)
+        f, P = welch(z, fs=1.0 / dt, nperseg=min(z.shape[1], 8192), axis=1)
+        power = power + P.sum(axis=0)
+    share = np.cumsum(power[1:]) / np.sum(power[1:])
+    return float(f[1 + np.searchsorted(share, 0.02)])
+
+
+def block_sizes(samples: int, m: int, references: int, row_channels: int, max_order: int, dt: float,
+                decay: bool, f_low: float, rows: int | None = None) -> tuple[int, int]:
+    """Block rows ``p`` (``rows`` if given) and columns ``q`` (see the module
+    docstring) for records of at least ``samples`` samples of ``m`` channels,
+    ``references`` reference and ``row_channels`` row channels, sampled at
+    ``dt`` s; ``decay``: every record is a free decay; ``f_low`` Hz."""
+    longest = min(samples // 20, LAG_BUDGET // (m * references))
+    rows = rows or max(2, min(ROW_BUDGET // row_channels, 4 * longest // 5))
+    columns = rows // 4
+    if not decay:
+        half_period = int(np.ceil(1.0 / (2.0 * f_low * dt))) + 1
+        columns = min(longest, max(rows + columns, half_period)) - rows
+    return int(rows), int(max(columns, -(-3 * max_order // (2 * references)), 1))

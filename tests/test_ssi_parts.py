@@ -1,0 +1,100 @@
+"""The building blocks of the modal method against independent references:
+lagged covariance sums by FFT against the lag-by-lag products, Hankel
+products by FFT against the explicit block Hankel matrix, the leading
+singular triplets against LAPACK's SVD, and the default Hankel sizes against
+their stated rules (record length, lowest frequency, free decay or not)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from structbench.identifier.ssi_covariance import covariances, group_labels, is_free_decay, reference_channels
+from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency
+from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
+
+
+def lag_by_lag(records, lags, references, groups):
+    """``sum_{k in group} z_{k+l} z_ref,k^T`` by one matrix product per lag and group (the definition)."""
+    m = records[0].shape[0]
+    scale = np.sqrt(np.mean(np.concatenate(records, axis=1) ** 2, axis=1))
+    refs = reference_channels(m, references)
+    sums, counts = np.zeros((groups, lags, m, refs.size)), np.zeros((groups, lags))
+    for y in records:
+        z = y / scale[:, None]
+        labels = group_labels(z.shape[1] - lags, groups, lags, is_free_decay(z))
+        for g in range(groups):
+            k = np.flatnonzero(labels == g)
+            for lag in range(1, lags + 1):
+                sums[g, lag - 1] += z[:, k + lag] @ z[refs][:, k].T
+            counts[g] += k.size
+    return sums, counts
+
+
+def test_covariance_sums_by_fft_are_the_lagged_products():
+    """A free decay (interleaved groups) and a stationary record (contiguous
+    groups) add up as two tests; 4 of 6 channels are references."""
+    rng = np.random.default_rng(0)
+    decay = rng.standard_normal((6, 3000)) * np.exp(-np.arange(3000) / 200.0)
+    stationary = rng.standard_normal((6, 2500))
+    assert is_free_decay(decay) and not is_free_decay(stationary)
+    for records in ([decay], [stationary], [decay, stationary]):
+        cov = covariances(records, 0.1, 37, 4, 5)
+        sums, counts = lag_by_lag(records, 37, 4, 5)
+        assert cov.sums == pytest.approx(sums, abs=1e-12 * np.abs(sums).max())
+        assert np.array_equal(cov.counts, counts)
+
+
+@pytest.mark.parametrize("rows, columns", [(30, 11), (7, 20), (1, 1), (2, 39)])
+def test_hankel_products_by_fft_are_the_matrix_products(rows, columns):
+    rng = np.random.default_rng(1)
+    R = rng.standard_normal((3, 40, 5, 3))  # a stack of three covariance sequences
+    explicit = np.zeros((3, rows * 5, columns * 3))
+    for i in range(rows):
+        for j in range(columns):
+            explicit[:, 5 * i:5 * i + 5, 3 * j:3 * j + 3] = R[:, i + j]
+    H = BlockHankel(R, rows, columns)
+    X, Y = rng.standard_normal((columns * 3, 4)), rng.standard_normal((3, rows * 5, 4))
+    assert H.dense() == pytest.approx(explicit, abs=1e-13)
+    assert H @ X == pytest.approx(explicit @ X, abs=1e-12)
+    assert H.rmatmul(Y) == pytest.approx(np.swapaxes(explicit, 1, 2) @ Y, abs=1e-12)
+    one = BlockHankel(R[1], rows, columns)
+    assert one.rmatmul(Y[2], one.transform(Y[2], rows)) == pytest.approx(explicit[1].T @ Y[2], abs=1e-12)
+
+
+def test_leading_singular_triplets_of_a_low_rank_hankel_are_lapacks():
+    """Covariances of three damped oscillations (rank 6): the randomised
+    subspace iteration gives the six leading triplets of the full SVD."""
+    rng = np.random.default_rng(2)
+    lags = np.arange(1, 80)
+    poles = np.exp((-0.01 + 1j * np.array([0.3, 0.7, 1.3]))[:, None] * lags)  # (3, L)
+    C, G = rng.standard_normal((4, 3)) + 0j, rng.standard_normal((3, 2)) + 0j
+    R = np.einsum("mk,kl,kr->lmr", C, poles, G).real
+    H = BlockHankel(R, 50, 29)
+    U, s, V = leading_svd(H, 6, power=1)
+    U0, s0, V0t = np.linalg.svd(H.dense())
+    assert s == pytest.approx(s0[:6], rel=1e-10)
+    assert np.abs(U.T @ U0[:, :6]) == pytest.approx(np.eye(6), abs=1e-8)
+    assert np.abs(V.T @ V0t[:6].T) == pytest.approx(np.eye(6), abs=1e-8)
+
+
+def test_lowest_frequency_is_where_two_percent_of_the_power_lies():
+    """Two sinusoids, 0.5 Hz (5 % of the power) and 4 Hz, and weak white
+    noise: 2 % of the power lies below the 0.5 Hz line."""
+    t = np.arange(40_000) * 0.01
+    rng = np.random.default_rng(3)
+    y = np.sqrt(0.05) * np.sin(2 * np.pi * 0.5 * t) + np.sqrt(0.95) * np.sin(2 * np.pi * 4.0 * t)
+    records = [np.vstack([y, y]) + 0.01 * rng.standard_normal((2, t.size))]
+    assert lowest_frequency(records, 0.01, np.arange(2)) == pytest.approx(0.5, abs=0.02)
+
+
+def test_block_sizes_follow_their_rules():
+    # free decay: rows from the budget or 4/5 of n / 20, columns a quarter of the rows
+    assert block_sizes(10_001, 10, 10, 10, 80, 0.01, True, 0.0) == (400, 100)
+    assert block_sizes(4_001, 10, 10, 10, 80, 0.01, True, 0.0) == (160, 40)
+    assert block_sizes(4_001, 10, 10, 10, 80, 0.01, True, 0.0, rows=20) == (20, 12)  # 1.5 x 80 / 10 columns
+    # stationary: the columns extend the span to half a period of f_low (0.1 Hz at 100 Hz: 500 + 1 lags)
+    rows, columns = block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.1)
+    assert (rows, columns) == (ROW_BUDGET // 20, 501 - ROW_BUDGET // 20)
+    # ... but never past n / 20 or the budget of the covariance sums (4e6 / (100 x 20) = 2000 lags)
+    assert sum(block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.001)) == 2000
+    assert sum(block_sizes(20_000, 10, 10, 10, 80, 0.01, False, 0.001)) == 1000
