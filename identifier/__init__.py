@@ -6,8 +6,9 @@ Imports only structbench.models: never the harness, the FMU layer or truth.json.
 - :mod:`structbench.identifier.perturbation`: chapter 4, frequency-domain perturbation with pseudo-parameters
 - :mod:`structbench.identifier.rayleigh`: chapter 5, pseudo-Rayleigh quotient
 - :mod:`structbench.identifier.modal`: output-only / free-decay modes with damping by SSI-cov
-  (:mod:`structbench.identifier.ssi_covariance`, :mod:`structbench.identifier.ssi_poles`, :mod:`structbench.identifier.stabilisation`,
-  :mod:`structbench.identifier.modal_uncertainty`)
+  (:mod:`structbench.identifier.ssi_design`, :mod:`structbench.identifier.ssi_covariance`,
+  :mod:`structbench.identifier.ssi_hankel`, :mod:`structbench.identifier.ssi_poles`,
+  :mod:`structbench.identifier.stabilisation`, :mod:`structbench.identifier.modal_uncertainty`)
 - :mod:`structbench.identifier.results`: the result records and their JSON file
 - helpers: :mod:`structbench.identifier.integrate` (accelerations to motion), :mod:`structbench.identifier.harmonic`
   (sinusoid fits, free-vibration frequencies)

@@ -32,7 +32,7 @@ see a mode that no sensor moves in (nor, with more than 20 channels, one the
 20 principal directions miss: a mode far weaker than 20 others); with fewer
 samples than ``20 (p + q)`` or a mode with under about one period in the
 record it fails or misses that mode. In a stationary record the lags span
-half a period of the lowest frequency carrying 2 % of the power (within
+a quarter period of the lowest frequency carrying 2 % of the power (within
 ``n / 20``): a mode well below it, weak in the response, may be missed.
 """
 from __future__ import annotations

@@ -52,26 +52,34 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     ``picks`` (indices into ``poles.omega``) of one order in every replicate
     (``space``: stacked Gram, shift, ``U^T Q`` and first block rows of the
     replicates' bases ``Q``), to first order from the full data's
-    eigen-decomposition; shapes in the Hankel's row channels. Poles that mix
-    with ``psi_k`` by more than 0.3 (``|W_ik| > 0.3 |mu_k - mu_i|``: a pair closer
-    than the data can separate, or the conjugate of a slow pole) are left out
-    of its shape's change: the pole is found again when the plane of the
-    pair is."""
+    eigen-decomposition; shapes in the Hankel's row channels. A pole that
+    mixes strongly with another of Im > 0 (``|W_ik| > 0.3 |mu_k - mu_i|``: a
+    pair closer than the perturbation) is followed instead through the
+    eigenvectors of that small group, ``diag(mu_b) + W_bb``: the one with the
+    best MAC is the replicate's pole."""
     gram, shift, align, top = space
     n, rows = poles.order, top.shape[1]
     cols = poles.index[picks]
     psi, mu0 = poles.vectors[:, cols], poles.mu[cols]
     T = align[:, :n, :n]
-    W = poles.inverse @ (T @ np.linalg.solve(gram[:, :n, :n], shift[:, :n, :n] @ np.linalg.solve(T, psi)))
+    M = T @ np.linalg.solve(gram[:, :n, :n], shift[:, :n, :n] @ np.linalg.inv(T))  # (G, n, n): M_g
+    W = poles.inverse @ (M @ psi)
     own = (slice(None), cols, np.arange(cols.size))
     W[own] -= mu0
     mu = mu0 + W[own]
     gap = mu0[None, :] - poles.mu[:, None]
     gap[cols, np.arange(cols.size)] = np.inf
     mix = W / gap
-    mix[np.abs(mix) > 0.3] = 0.0
-    moved = top[:, :, :n] @ np.linalg.solve(T, psi + poles.vectors @ mix)
-    mac = _mac(U[:rows, :n] @ psi, moved)
+    base = top[:, :, :n] @ np.linalg.solve(T, poles.vectors)  # (G, rows, n): replicate shapes of every psi_i
+    shape = U[:rows, :n] @ psi
+    mac = _mac(shape, base[:, :, cols] + base @ mix)
+    strong = (np.abs(mix) > 0.3) & (poles.mu.imag > 0)[None, :, None]
+    for g, c in zip(*np.nonzero(strong.any(axis=1))):
+        group = np.union1d(cols[c], np.flatnonzero(strong[g, :, c]))
+        lam, y = np.linalg.eig(poles.inverse[group] @ M[g] @ poles.vectors[:, group])
+        fits = _mac(shape[:, [c]], base[g][:, group] @ y)
+        best = int(np.argmax(fits))
+        mu[g, c], mac[g, c] = lam[best], fits[best]
     s = np.log(mu) / dt
     return np.abs(s), -s.real / np.abs(s), mac
 

@@ -124,7 +124,7 @@ def covariances(records: list[np.ndarray], dt: float, lags: int, references: int
     for y in records:
         usable = y.shape[1] - lags  # the same reference samples k for every lag keep R_l = C A^(l-1) G exact
         decay = is_free_decay(y / scale[:, None])
-        piece = decay_block(lags) if decay else max(lags, 4096)
+        piece = decay_block(lags) if decay else min(max(lags, 4096), -(-usable // groups))
         size = sfft.next_fast_len(piece + lags + 1, real=True)
         runs = _runs(group_labels(usable, groups, lags, decay), piece)
         for g in range(groups):

@@ -9,8 +9,8 @@ the lags use as much of the record as the covariance estimates allow. In a
 stationary response to random excitation the finite record itself limits
 the accuracy (a relative frequency error of about ``sqrt(zeta / (omega T))``
 whatever the method) and longer rows do not help; but the lags must span a
-good fraction of a period of the lowest mode the response carries (a sixth
-of the period missed it in tests, a quarter found it), which with fine
+good fraction of a period of the lowest mode the response carries (a tenth
+of the period missed it in tests, a fifth found it), which with fine
 sampling is more lags than rows can afford. A free response that does not
 decay (an undamped structure) is not told apart from a stationary one; it
 gets the longer of the two spans.
@@ -22,11 +22,14 @@ numbers, stay below about 250 MB). The block rows ``p`` are the costly
 dimension (the subspace, its QR and the Gram matrices grow with ``p x row
 channels``): ``p <= ROW_BUDGET / row channels`` and at most 4/5 of that
 longest span. The columns ``q`` are a quarter of the rows; unless every
-record is a free decay they extend the span to half a period of ``f_low``,
-the frequency below which 2 % of the reference channels' power lies (Welch
-spectrum), where that is longer (products with the Hankel matrix are FFTs
-over the lag axis and cost little more for more columns); and they are at
-least ``1.5 max_order / r``, so that every model order has columns enough.
+record is a free decay they extend the span to a quarter period of
+``f_low``, the frequency below which 2 % of the reference channels' power
+lies (Welch spectrum), where that is longer (products with the Hankel matrix
+are FFTs over the lag axis and cost little more for more columns; but in
+random data lags many decay times long carry only noise for the faster
+modes: a span of half a period lost the four highest modes of the damped
+beam in tests); and they are at least ``1.5 max_order / r``, so that every
+model order has columns enough.
 """
 from __future__ import annotations
 
@@ -61,6 +64,6 @@ def block_sizes(samples: int, m: int, references: int, row_channels: int, max_or
     rows = rows or max(2, min(ROW_BUDGET // row_channels, 4 * longest // 5))
     columns = rows // 4
     if not decay:
-        half_period = int(np.ceil(1.0 / (2.0 * f_low * dt))) + 1
-        columns = min(longest, max(rows + columns, half_period)) - rows
+        quarter_period = int(np.ceil(1.0 / (4.0 * f_low * dt))) + 1
+        columns = min(longest, max(rows + columns, quarter_period)) - rows
     return int(rows), int(max(columns, -(-3 * max_order // (2 * references)), 1))

@@ -92,8 +92,8 @@ def test_block_sizes_follow_their_rules():
     assert block_sizes(10_001, 10, 10, 10, 80, 0.01, True, 0.0) == (400, 100)
     assert block_sizes(4_001, 10, 10, 10, 80, 0.01, True, 0.0) == (160, 40)
     assert block_sizes(4_001, 10, 10, 10, 80, 0.01, True, 0.0, rows=20) == (20, 12)  # 1.5 x 80 / 10 columns
-    # stationary: the columns extend the span to half a period of f_low (0.1 Hz at 100 Hz: 500 + 1 lags)
-    rows, columns = block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.1)
+    # stationary: the columns extend the span to a quarter period of f_low (0.05 Hz at 100 Hz: 500 + 1 lags)
+    rows, columns = block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.05)
     assert (rows, columns) == (ROW_BUDGET // 20, 501 - ROW_BUDGET // 20)
     # ... but never past n / 20 or the budget of the covariance sums (4e6 / (100 x 20) = 2000 lags)
     assert sum(block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.001)) == 2000
