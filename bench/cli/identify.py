@@ -74,7 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--quantity", choices=known[md].choices["quantity"],
                        help="sensors used: displacement, else velocity, else acceleration (default auto)")
     group.add_argument("--block-rows", type=int, metavar="P",
-                       help="block rows of the covariance Hankel matrix (default 200, fewer for many channels)")
+                       help="block rows of the covariance Hankel matrix (default from the data: up to 4000 / row channels, record length / 25)")
     group.add_argument("--max-order", type=int, metavar="N",
                        help=f"highest model order of the stabilisation diagram (default {_default(md, 'max_order')})")
     group.add_argument("--references", type=int, metavar="R",
