@@ -5,32 +5,42 @@ The covariance sums are kept per sample group (``G`` groups,
 :mod:`identifier.ssi_covariance`); replicate ``g`` repeats the identification
 from every group but ``g``. Its subspace is one step of subspace iteration
 from the full data's leading left singular vectors ``U``: ``Q_g = orth(H_g
-H_g^T U)`` column by column, so that its first ``n`` columns span the
-replicate's subspace of order ``n`` (two Hankel products by FFT for all
-replicates at once, :mod:`identifier.ssi_hankel`, and a QR each). At order
-``n`` the basis ``Q_n T^-1``, ``T = U_n^T Q_n``, is the one nearest ``U_n``; its
-``M_g = T G_g^-1 K_g T^-1`` (:mod:`identifier.ssi_poles`) is near the full
-data's ``M = Psi diag(mu) Psi^-1``, and with ``W = Psi^-1 (M_g - M) Psi`` each
-pole ``k`` of a mode moves, to first order, to
+H_g^T U)`` column by column (Householder QR), so that its first ``n``
+columns span the replicate's subspace of order ``n``; two Hankel products by
+FFT (:mod:`identifier.ssi_hankel`, the FFT of ``U`` shared) and a QR per
+replicate, two replicates at a time. (The cheaper first-order subspace
+``U + (I - U U^T) E_g V S^-1`` fails for free decays: a mode that one group
+holds almost alone loses nearly all of its singular value when that group
+is left out, far outside first order, and the errors came out 2-4 times too
+small.) At order ``n`` the basis ``Q_n T^-1``, ``T = U_n^T Q_n``, is the one
+nearest ``U_n``; its ``M_g = T G_g^-1 K_g T^-1`` (:mod:`identifier.ssi_poles`)
+is near the full data's ``M = Psi diag(mu) Psi^-1``, and with ``W = Psi^-1
+(M_g - M) Psi`` each pole ``k`` of a mode moves, to first order, to
 
     mu_k + W_kk,     psi_k + sum_(i != k) psi_i W_ik / (mu_k - mu_i)
 
-(no eigen-decomposition per replicate). A mode is found again at an order
+(no eigen-decomposition per replicate); a pole that mixes strongly with a
+near one (``|W_ik| > 0.3 |mu_k - mu_i|``, Im ``mu_i`` > 0) is followed through the
+eigenvectors of that small group instead. A mode is found again at an order
 when its pole stays within 5 % of the mode's frequency with MAC > 0.8 to the
-full data's shape; the replicate takes the medians over the orders of the
-mode's stable poles, as the full-data estimate does, when it is found at at
-least half of them. With ``theta_g`` the replicates and ``theta_.`` their
-mean,
+full data's shape; the replicate takes the medians over up to six of the
+orders the full-data estimate uses (the lower half of the mode's stable
+poles' orders), when it is found at at least half of them. With ``theta_g``
+the replicates and ``theta_.`` their mean,
 
     se^2 = (G - 1) / G sum_g (theta_g - theta_.)^2     (Quenouille-Tukey).
 
 Assumes the groups' noise contributions are nearly independent: contiguous
 segments longer than the response's correlation time (stationary records) or
-interleaved blocks as long as the lags (free decay). Noise modes move far
-(small gaps between poles) and are not found again. With few groups the
-estimate has ``G - 1`` degrees of freedom; a mode not found in some replicate
-gets NaN (no error stated): in a free decay a mode that has died out within
-the first block of samples is seen by one group only.
+interleaved blocks of half the lag span (free decay; shorter blocks share
+too many lagged samples between groups and the errors come out too small).
+Noise modes move far (small gaps between poles) and are not found again.
+With few groups the estimate has ``G - 1`` degrees of freedom; a mode not
+found in some replicate gets NaN (no error stated): in a free decay a mode
+that has died out within the first block of samples is seen by one group
+only. A mode whose correlation time exceeds the stationary segments (the
+damped beam's first mode, 507 s, in 450 s segments) gets errors somewhat
+too small.
 """
 from __future__ import annotations
 
@@ -123,7 +133,10 @@ def jackknife(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U
     found: list[list[list[tuple[float, float]]]] = [[[] for _ in targets] for _ in range(groups)]
     for n in sorted({n for members, _ in targets for n, _ in members}):
         which = [(k, j) for k, (members, _) in enumerate(targets) for order, j in members if order == n]
-        omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), cov.dt)
+        try:
+            omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), cov.dt)
+        except np.linalg.LinAlgError:  # a replicate's subspace lost a direction of this order: nothing found
+            continue
         w0 = np.array([targets[k][1] for k, _ in which])
         for g, c in zip(*np.nonzero((np.abs(omega - w0) < 0.05 * w0) & (mac > 0.8))):
             found[g][which[c][0]].append((omega[g, c], zeta[g, c]))
