@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
-from .free_decay_fit import ROTATE, Group, basis, project
+from .free_decay_fit import ROTATE, Group, Projection, basis
 from .rank_one_fit import Layout
 
 
@@ -42,19 +42,19 @@ class FirstOrder:
     scale: np.ndarray
 
 
-def score_statistics(groups: list[Group], poles: np.ndarray, tested: int) -> tuple[np.ndarray, int]:
+def score_statistics(groups: list[Group], projections: list[Projection], poles: np.ndarray, tested: int
+                     ) -> tuple[np.ndarray, int]:
     """The score statistic ``S`` (tested,) of each of the first ``tested`` poles
     for an unmodelled ``t e^(lambda t)`` term and its degrees of freedom
     ``2M - 2``. With ``F = (I - QQ^T) t [u_j, v_j]`` (n x 2), ``G = F^T F = L L^T``
-    and the residual ``R`` (n x M) of the weighted group, ``h = vec(L^-1 F^T R)``
+    and the residual ``R`` (n x M) of the weighted group (``projections`` on ``poles``), ``h = vec(L^-1 F^T R)``
     (2M) is standard normal for a single pole; the two directions
     ``vec(L^T C_j)``, ``vec(L^T ROTATE C_j)`` that an error of the pole itself
     gives are projected out: ``S ~ chi^2(2M - 2)``. A pole whose ``t e^(lambda t)``
     lies in the basis (another pole there) gets 0."""
     h: list[list[np.ndarray]] = [[] for _ in range(tested)]
     w: list[list[np.ndarray]] = [[] for _ in range(tested)]
-    for g in groups:
-        proj = project(g, poles)
+    for g, proj in zip(groups, projections):
         cols = basis(g.t, poles)[:, 2:].reshape(g.t.size, poles.size, 2) * g.t[:, None, None]
         for j in range(tested):
             f = cols[:, j] - proj.q @ (proj.q.T @ cols[:, j])

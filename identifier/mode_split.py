@@ -59,7 +59,7 @@ from threadpoolctl import threadpool_limits
 
 from .errors import IdentificationError
 from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
-from .free_decay_fit import Group, fit_poles, omega_zeta, project
+from .free_decay_fit import Group, Projection, fit_poles, omega_zeta, project
 from .local_space import REACH, local_space
 from .rank_one_fit import Layout, ModeFit, fit_modes
 from .traces import Trace
@@ -103,27 +103,26 @@ class Refinement:
 
 
 def weighted_groups(records: list[np.ndarray], dt: float, poles: np.ndarray
-                    ) -> tuple[list[Group], list[Layout], list[np.ndarray]]:
+                    ) -> tuple[list[Group], list[Layout], list[Projection]]:
     """The records (each (m, n_r)) grouped by length, each channel divided by
     its noise level (the residual RMS with ``poles``); the groups' layouts and
-    weighted residuals (n, M_g)."""
-    groups, layouts, resids = [], [], []
+    projections on ``poles`` (weighted)."""
+    groups, layouts, projections = [], [], []
     for n in sorted({y.shape[1] for y in records}):
         which = np.array([r for r, y in enumerate(records) if y.shape[1] == n])
         z = np.hstack([records[r].T for r in which])
-        group = Group(np.arange(n) * dt, z)
-        resid = project(group, poles).resid
-        s = np.sqrt(np.sum(resid**2, axis=0) / max(n - 2 - 2 * poles.size, 1))
+        proj = project(Group(np.arange(n) * dt, z), poles)
+        s = np.sqrt(np.sum(proj.resid**2, axis=0) / max(n - 2 - 2 * poles.size, 1))
         s = np.maximum(s, FLOOR * np.sqrt(np.mean(z**2, axis=0)) + np.finfo(float).tiny)
-        groups.append(Group(group.t, z / s))
+        groups.append(Group(np.arange(n) * dt, z / s))
         layouts.append(Layout(which, s.reshape(which.size, -1), n))
-        resids.append(resid / s)
-    return groups, layouts, resids
+        projections.append(Projection(proj.q, proj.u, proj.coef / s, proj.resid / s))
+    return groups, layouts, projections
 
 
 def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float) -> float | None:
     """Frequency (rad/s) of the significant peak of the summed periodogram of the
-    weighted residuals away from every pole (module docstring, step 2), or None."""
+    weighted residuals (n_g, M_g) away from every pole (module docstring, step 2), or None."""
     nfft = max(r.shape[0] for r in resids)
     power = sum(2 * np.sum(np.abs(np.fft.rfft(r, nfft, axis=0)) ** 2, axis=1) / r.shape[0] for r in resids)
     step = 2 * np.pi / (nfft * dt)
@@ -221,12 +220,12 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
     span = max(y.shape[1] for y in records) * dt
     step = 2 * np.pi / span
     while True:
-        groups, layouts, resids = weighted_groups(records, dt, poles)
-        peak = residual_peak(resids, poles, dt, alpha) if poles.size < 2 * k else None
+        groups, layouts, projections = weighted_groups(records, dt, poles)
+        peak = residual_peak([pr.resid for pr in projections], poles, dt, alpha) if poles.size < 2 * k else None
         if peak is None:
             break
         poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
-    stats, df = score_statistics(groups, poles, k)
+    stats, df = score_statistics(groups, projections, poles, k)
     level = alpha / k
     pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < level), span)
              if (found := _split(groups, layouts, poles, idx, span, level)) is not None]

@@ -11,24 +11,25 @@ becomes, channel ``i`` of record ``r``,
 
 Nonlinear parameters: each free pole ``(sigma_a, omega_d,a)`` and its
 participations (``p_ra = 1`` at one reference record, so ``2 (R - 1)`` reals);
-the shapes and the fixed poles' residues (free per record) are linear. With
-the fixed columns projected out of each record and ``E = (I - Q_f Q_f^T)
-[Re e^(lambda_a t), Im e^(lambda_a t)]_a`` (n x 2p), record ``r`` has the
-columns ``W_r = E M_r`` (``M_r`` (2p x p): ``(Re p_ra, -Im p_ra)`` in mode ``a``'s
-rows) and channel ``i`` (weighted by ``1 / s_ri``) the normal equations
+the shapes and the fixed poles' residues (free per record) are linear. The
+poles stay near one centre, so each group of records is its reduced
+:class:`identifier.local_space.Local` (``V^T Z``, the fixed poles projected
+out). With ``E = V^T [Re e^(lambda_a t), Im e^(lambda_a t)]_a`` (k x 2p),
+record ``r`` has the columns ``W_r = E M_r`` (``M_r`` (2p x p): ``(Re p_ra,
+-Im p_ra)`` in mode ``a``'s rows) and channel ``i`` (weighted by ``1 / s_ri``)
+the normal equations
 
-    (sum_r W_r^T W_r / s_ri^2) phi_i = sum_r W_r^T z_ri / s_ri,
+    (sum_r W_r^T W_r / s_ri^2) phi_i = sum_r W_r^T z_ri / s_ri.
 
-from the small Gram matrices ``E^T E`` and ``E^T Z``. ``scipy.optimize.least_squares``
-minimises the projected residual ``||Z - E A||^2`` over the nonlinear parameters
-through a vector of the same norm, ``[G^-1/2 E^T Z - G^1/2 A, ||(I - P_E) z_col||]``
-(``G = E^T E``; 5 M numbers instead of n M; finite-difference Jacobian); the
-covariance ``s^2 (J^T J)^-1`` (``s^2 = f / dof``) uses the Jacobian of the full residual.
+``scipy.optimize.least_squares`` minimises the residual ``V^T Z - E A`` (a few
+dozen rows per column; finite-difference Jacobian) over the nonlinear
+parameters; the residual sum of squares adds the constant part outside ``V``;
+the covariance is ``s^2 (J^T J)^-1`` with ``s^2 = f / dof``.
 
 Two poles of a close pair are separated by this structure: their first-order
-sum ``(c_a + c_b) e^(lambda t) + (c_a - c_b) (delta / 2) t e^(lambda t)`` (see
-:mod:`identifier.mode_split`) fixes ``delta`` only when the residues are rank
-one over at least two records that move the pair in different proportions.
+sum ``(c_r + d_r t) e^(lambda t)`` (:mod:`identifier.close_pair`) fixes
+``delta`` only when the residues are rank one over at least two records that
+move the pair in different proportions.
 Fails for repeated roots (their residues are not rank one), for complex
 modes (non-classical damping: the fit then leaves their imaginary part in the
 residual) and for a mode absent from its reference record.
