@@ -78,9 +78,10 @@ class Projection:
     resid: np.ndarray
 
 
-def project(group: Group, poles: np.ndarray) -> Projection:
-    """Least-squares offsets, drifts and residues of every column for given poles (K,)."""
-    q, u = la.qr(basis(group.t, poles), mode="economic")
+def project(group: Group, columns: np.ndarray) -> Projection:
+    """Least-squares coefficients of every data column on ``columns`` (n, N),
+    e.g. the offsets, drifts and residues on :func:`basis`."""
+    q, u = la.qr(columns, mode="economic")
     qz = q.T @ group.z
     return Projection(q, u, la.solve_triangular(u, qz), group.z - q @ qz)
 

@@ -9,10 +9,11 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 ``K`` reported modes (Bonferroni, ``alpha / K`` each):
 
 1. Each record's channels are divided by their noise level ``s_ri``: the RMS
-   of the residual of the fit with the SSI poles (:mod:`identifier.free_decay_fit`;
-   at least ``FLOOR`` x the channel's RMS, so that on noise-free records the
-   tiny misfit of the SSI poles does not count).
-2. Modes SSI did not report but the residual holds (a peak of the summed
+   of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
+   terms (:mod:`identifier.free_decay_fit`; these terms take up the poles'
+   errors and close pairs; at least ``FLOOR`` x the channel's RMS, so that on
+   noise-free records the tiny misfit of the SSI poles does not count).
+2. Modes SSI did not report but that residual holds (a peak of the summed
    periodogram ``P(omega) = sum 2 |DFT r|^2 / n ~ chi^2(2M)`` over the ``M``
    weighted columns, above its ``1 - alpha / bins`` quantile, further than ``NEAR``
    bins ``2 pi / T`` from every pole) are fitted and added, unreported (at
@@ -59,7 +60,7 @@ from threadpoolctl import threadpool_limits
 
 from .errors import IdentificationError
 from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
-from .free_decay_fit import Group, Projection, fit_poles, omega_zeta, project
+from .free_decay_fit import Group, Projection, basis, fit_poles, omega_zeta, project
 from .local_space import REACH, local_space
 from .rank_one_fit import Layout, ModeFit, fit_modes
 from .traces import Trace
@@ -103,21 +104,27 @@ class Refinement:
 
 
 def weighted_groups(records: list[np.ndarray], dt: float, poles: np.ndarray
-                    ) -> tuple[list[Group], list[Layout], list[Projection]]:
+                    ) -> tuple[list[Group], list[Layout], list[Projection], list[np.ndarray]]:
     """The records (each (m, n_r)) grouped by length, each channel divided by
-    its noise level (the residual RMS with ``poles``); the groups' layouts and
-    projections on ``poles`` (weighted)."""
-    groups, layouts, projections = [], [], []
+    its noise level; the groups' layouts, projections on ``poles`` and the
+    first-order residuals (n, M_g), all weighted. The noise level is the
+    RMS of the residual with ``poles`` and their ``t e^(lambda t)`` terms, which
+    take up both an error of a pole and a close pair: what is left is noise
+    and modes missing from ``poles``."""
+    groups, layouts, projections, firsts = [], [], [], []
     for n in sorted({y.shape[1] for y in records}):
         which = np.array([r for r, y in enumerate(records) if y.shape[1] == n])
         z = np.hstack([records[r].T for r in which])
-        proj = project(Group(np.arange(n) * dt, z), poles)
-        s = np.sqrt(np.sum(proj.resid**2, axis=0) / max(n - 2 - 2 * poles.size, 1))
+        t = np.arange(n) * dt
+        b = basis(t, poles)
+        first = project(Group(t, z), np.column_stack([b, t[:, None] * b[:, 2:]])).resid
+        s = np.sqrt(np.sum(first**2, axis=0) / max(n - 2 - 4 * poles.size, 1))
         s = np.maximum(s, FLOOR * np.sqrt(np.mean(z**2, axis=0)) + np.finfo(float).tiny)
-        groups.append(Group(np.arange(n) * dt, z / s))
+        groups.append(Group(t, z / s))
         layouts.append(Layout(which, s.reshape(which.size, -1), n))
-        projections.append(Projection(proj.q, proj.u, proj.coef / s, proj.resid / s))
-    return groups, layouts, projections
+        projections.append(project(groups[-1], b))
+        firsts.append(first / s)
+    return groups, layouts, projections, firsts
 
 
 def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float) -> float | None:
@@ -220,8 +227,8 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
     span = max(y.shape[1] for y in records) * dt
     step = 2 * np.pi / span
     while True:
-        groups, layouts, projections = weighted_groups(records, dt, poles)
-        peak = residual_peak([pr.resid for pr in projections], poles, dt, alpha) if poles.size < 2 * k else None
+        groups, layouts, projections, firsts = weighted_groups(records, dt, poles)
+        peak = residual_peak(firsts, poles, dt, alpha) if poles.size < 2 * k else None
         if peak is None:
             break
         poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
@@ -234,7 +241,7 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
     # the noise levels again, without the pairs' t e^(lambda t) terms in the residual, and the pairs refitted
     taken = [j for idx, _, _ in pairs for j in idx]
     poles = np.concatenate([np.delete(poles, taken)] + [two.poles for _, _, two in pairs])
-    groups, layouts, _ = weighted_groups(records, dt, poles)
+    groups, layouts, _, _ = weighted_groups(records, dt, poles)
     for idx, center, two in pairs:
         others = poles[~np.isin(poles, two.poles)]
         locs = [local_space(g, others, center) for g in groups]

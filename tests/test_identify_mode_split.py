@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from modal_synth import free_decays
-from structbench.identifier.free_decay_fit import Group, fit_poles, project
+from structbench.identifier.free_decay_fit import Group, basis, fit_poles, project
 from structbench.identifier.local_space import columns, local_space
 from structbench.identifier.mode_split import free_start, split_close_modes, split_free_decays
 from structbench.identifier.ssi_poles import real_shapes
@@ -45,7 +45,7 @@ def test_local_space_gives_the_residual_of_the_whole_record():
     loc = local_space(group, fixed, center)
     e = columns(loc, pair)
     reduced = loc.zv - e @ np.linalg.lstsq(e, loc.zv, rcond=None)[0]
-    full = project(group, np.concatenate([fixed, pair])).resid
+    full = project(group, basis(t, np.concatenate([fixed, pair]))).resid
     assert np.sum(reduced**2) + loc.outside.sum() == pytest.approx(np.sum(full**2), rel=1e-10)
 
 
