@@ -20,7 +20,8 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
    most ``K``), so that their signal does not leak into the tests; the noise
    levels are estimated again.
 3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
-   (score test, :func:`identifier.close_pair.score_statistics`), and two
+   (score test, :func:`identifier.close_pair.score_statistics`, at level
+   ``alpha``: it only picks candidates, the tests of step 4 decide), and two
    reported modes with ``|delta omega| T < RESOLVED``.
 4. A candidate is split (or its reported pair refitted) only if the records
    move it in different proportions: the residues ``[c_1 ... c_R]`` of its
@@ -234,7 +235,7 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
         poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
     stats, df = score_statistics(groups, projections, poles, k)
     level = alpha / k
-    pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < level), span)
+    pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span)
              if (found := _split(groups, layouts, poles, idx, span, level)) is not None]
     if not pairs:
         return rows
