@@ -68,8 +68,9 @@ def band_force(n: int, dt: float, band: tuple[float, float], rms: float, seed: i
 
 
 def trace(model, response: dict[str, np.ndarray], dt: float, quantity: str, ratio: float, seed: int,
-          name: str = "synthetic", nodes: list[int] | None = None) -> Trace:
-    """An in-memory :class:`Trace` of one quantity at ``nodes`` (default all) with sensor noise."""
+          name: str = "synthetic", nodes: list[int] | None = None, excitation: dict | None = None) -> Trace:
+    """An in-memory :class:`Trace` of one quantity at ``nodes`` (default all) with sensor noise;
+    ``excitation``: the attributes of ``/excitation`` (its ``kind``, ``spec``)."""
     rng = np.random.default_rng(seed)
     data = response[quantity]
     n = data.shape[0]
@@ -81,4 +82,19 @@ def trace(model, response: dict[str, np.ndarray], dt: float, quantity: str, rati
         channels[f"{quantity}_{node}_w"] = Channel(f"{quantity}_{node}_w", noisy, quantity, UNITS[quantity],
                                                    node, "w", np.full(3, np.nan), ratio)
     return Trace(Path(f"{name}.h5"), np.arange(n) * dt, dt, dt, channels, {},
-                 {"test": name, "repetition": seed, "structure": model.name})
+                 {"test": name, "repetition": seed, "structure": model.name}, excitation or {})
+
+
+def free_decays(omega: np.ndarray, zeta: np.ndarray, shapes: np.ndarray, participations: np.ndarray,
+                dt: float, n: int, ratio: float, seed: int) -> list[np.ndarray]:
+    """Records (m, n) of free decays ``y_r(t) = sum_a phi_a Re(p_ra e^(lambda_a t))``
+    (``lambda_a = -zeta_a omega_a + i omega_a sqrt(1 - zeta_a^2)``; shapes (m, p),
+    participations (R, p) complex) with white noise of ``ratio x`` each clean channel's RMS."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * dt
+    poles = -zeta * omega + 1j * omega * np.sqrt(1 - zeta**2)
+    out = []
+    for p in np.atleast_2d(participations):
+        clean = shapes @ (p[:, None] * np.exp(np.outer(poles, t))).real
+        out.append(clean + ratio * np.sqrt(np.mean(clean**2, axis=1))[:, None] * rng.standard_normal(clean.shape))
+    return out

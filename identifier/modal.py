@@ -46,6 +46,7 @@ from structbench.models import Model
 
 from .errors import IdentificationError
 from .modal_uncertainty import jackknife
+from .mode_split import split_free_decays
 from .results import Identification
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency
@@ -85,12 +86,13 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
 
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
-             min_fraction: float = 0.3, drop_unrepeated: bool = True) -> Identification:
+             min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto") -> Identification:
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
     all jackknife replicates but at most one find again (spurious noise modes
-    do not)."""
+    do not). ``refine``: ``auto`` fits free responses whole to split close
+    pairs (:mod:`identifier.mode_split`), ``off`` does not."""
     records, channels, dt = sensor_records(traces, quantity)
     m = records[0].shape[0]
     r = min(references, m)
@@ -128,6 +130,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         omega_se[kept], zeta_se[kept]
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
+    split = split_free_decays(traces, records, dt, omega, zeta, shapes, omega_se, zeta_se, refine)
+    omega, zeta, omega_se, zeta_se, shapes = split.omega, split.zeta, split.omega_std, split.zeta_std, split.shapes
+    modes = [modes[i] for i in split.source]
     return Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
@@ -139,6 +144,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         details={"algorithm": "ssi-cov", "quantity": channels[0].quantity, "block_rows": p, "block_columns": q,
                  "references": r, "segments": segments, "max_order": order_cap,
                  "orders": [md.order for md in modes], "support": [md.support for md in modes],
+                 "refined": split.refined.tolist(),
                  "stabilisation": _diagram(poles, flags)})
 
 

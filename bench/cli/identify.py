@@ -83,6 +83,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help=f"sample groups of the jackknife errors (default {_default(md, 'segments')})")
     group.add_argument("--min-fraction", type=float, metavar="F",
                        help=f"share of the orders a mode must be stable in (default {_default(md, 'min_fraction')})")
+    group.add_argument("--refine", choices=known[md].choices["refine"],
+                       help="auto: fit free responses whole to split close pairs of modes (default auto)")
 
 
 def generic(items: list[str]) -> dict[str, Any]:

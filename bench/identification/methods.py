@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any
 
-from structbench.identifier import least_squares, modal, perturbation, rayleigh
+from structbench.identifier import least_squares, modal, mode_split, perturbation, rayleigh
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.results import Identification
 
@@ -71,9 +71,9 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            model="optional"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-            "min_fraction": 0.3},
+            "min_fraction": 0.3, "refine": "auto"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
-           {"quantity": modal.QUANTITIES}, model="optional"),
+           {"quantity": modal.QUANTITIES, "refine": mode_split.REFINE}, model="optional"),
 )}
 
 

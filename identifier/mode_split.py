@@ -1,0 +1,253 @@
+"""Close pairs of modes from two or more free-response records, by
+maximum-likelihood fits of the whole records.
+
+SSI-cov uses lags of a few seconds, so two modes whose poles differ by
+``delta = lambda_a - lambda_b`` with ``|delta| T << 1`` over the record length
+``T`` look like one (or come out as two with mixed shapes). Over the whole
+record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
+(:mod:`identifier.close_pair`). Steps, at level ``alpha`` split over the
+``K`` reported modes (Bonferroni, ``alpha / K`` each):
+
+1. Each record's channels are divided by their noise level ``s_ri``: the RMS
+   of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
+   terms (:mod:`identifier.free_decay_fit`; these terms take up the poles'
+   errors and close pairs; at least ``FLOOR`` x the channel's RMS, so that on
+   noise-free records the tiny misfit of the SSI poles does not count).
+2. Modes SSI did not report but that residual holds (a peak of the summed
+   periodogram ``P(omega) = sum 2 |DFT r|^2 / n ~ chi^2(2M)`` over the ``M``
+   weighted columns, above its ``1 - alpha / bins`` quantile, further than ``NEAR``
+   bins ``2 pi / T`` from every pole) are fitted and added, unreported (at
+   most ``K``), so that their signal does not leak into the tests; the noise
+   levels are estimated again.
+3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
+   (score test, :func:`identifier.close_pair.score_statistics`, at level
+   ``alpha``: it only picks candidates, the tests of step 4 decide), and two
+   reported modes with ``|delta omega| T < RESOLVED``.
+4. A candidate is split (or its reported pair refitted) only if the records
+   move it in different proportions: the residues ``[c_1 ... c_R]`` of its
+   pole (with a ``t e^(lambda t)`` term) are not rank one
+   (:func:`identifier.close_pair.rank_one_misfit` above its ``chi^2`` quantile).
+   From the eigenvalues of ``D^+ C`` (:func:`identifier.close_pair.pencil`) it
+   is then fitted as one mode and as two, each with residues of rank one across
+   the records (:mod:`identifier.rank_one_fit`, poles within ``RESOLVED / T``
+   of its pole, the other poles held). The pair is kept when (a) the
+   likelihood ratio ``(f_1 - f_2) / s^2`` exceeds the quantile of
+   ``chi^2(2 + m + 2 (R - 1))`` (the second mode's pole, shape, participations),
+   (b) ``delta`` differs from 0 by the Wald test ``delta^T cov^-1 delta`` on
+   ``chi^2(2)``, and (c) neither pole stops at the band's edge. A genuine single
+   mode fails (a), a pair moved in one proportion by every record (no record
+   tells the shapes apart) fails step 4, a repeated root (residues of rank two,
+   no splitting) fails (b): each stays as SSI reported it.
+5. With the noise levels estimated again (the pairs now in the model) each
+   kept pair is fitted once more; its frequencies, damping ratios and standard
+   errors come from that fit (Gauss-Newton covariance), its shapes are the
+   fitted (real) ``phi``.
+
+Needs two or more records: from one, a pair's shapes rest on second-order
+terms alone. Assumes free response from the start of each record (a linear
+structure, normal modes, white noise). Fails to split a pair whose splitting
+shows less than the noise over the records; a mode SSI missed that lies
+between ``RESOLVED / T`` and ``NEAR`` bins from a reported one stays missed.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+from scipy.stats import chi2
+from threadpoolctl import threadpool_limits
+
+from .errors import IdentificationError
+from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
+from .free_decay_fit import Group, Projection, basis, fit_poles, omega_zeta, project
+from .local_space import REACH, local_space
+from .rank_one_fit import Layout, ModeFit, fit_modes
+from .traces import Trace
+
+ALPHA = 0.01
+FLOOR = 1e-6  # least noise standard deviation, x channel RMS
+NEAR = 2.0  # frequency bins (2 pi / T) around a pole that belong to it
+RESOLVED = REACH / np.sqrt(2)  # rad: |delta omega| T of a pair SSI may get wrong; the fits' band is +- RESOLVED / T
+FREE_KINDS = ("impulse", "initial")
+REFINE = ("auto", "off")
+
+
+def free_start(trace: Trace) -> int | None:
+    """First sample of the free response of a trace whose excitation
+    (``/excitation`` attribute ``kind``) is only impulses and initial
+    conditions: after the last impulse's pulse (one force step) or at its
+    time (``method = "initial-velocity"``); None for any other excitation."""
+    kinds = str(trace.excitation_attrs.get("kind", "")).split("+")
+    if not all(k in FREE_KINDS for k in kinds):
+        return None
+    items = trace.excitation_attrs.get("spec") or [{"kind": k} for k in kinds]
+    end = max([it.get("time", 0.0) + (trace.step if it.get("method", "pulse") == "pulse" else 0.0)
+               for it in items if it.get("kind") == "impulse"], default=0.0)
+    return int(np.ceil(end / trace.dt - 1e-9))
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """The modes after splitting (k >= input count): ``omega`` rad/s,
+    ``zeta``, standard errors, complex ``shapes`` (m, k) of unit norm,
+    ``source`` (k,) the input mode each comes from, ``refined`` (k,) True
+    for the modes of a split pair (values from the free-decay fit)."""
+
+    omega: np.ndarray
+    zeta: np.ndarray
+    omega_std: np.ndarray
+    zeta_std: np.ndarray
+    shapes: np.ndarray
+    source: np.ndarray
+    refined: np.ndarray
+
+
+def weighted_groups(records: list[np.ndarray], dt: float, poles: np.ndarray
+                    ) -> tuple[list[Group], list[Layout], list[Projection], list[np.ndarray]]:
+    """The records (each (m, n_r)) grouped by length, each channel divided by
+    its noise level; the groups' layouts, projections on ``poles`` and the
+    first-order residuals (n, M_g), all weighted. The noise level is the
+    RMS of the residual with ``poles`` and their ``t e^(lambda t)`` terms, which
+    take up both an error of a pole and a close pair: what is left is noise
+    and modes missing from ``poles``."""
+    groups, layouts, projections, firsts = [], [], [], []
+    for n in sorted({y.shape[1] for y in records}):
+        which = np.array([r for r, y in enumerate(records) if y.shape[1] == n])
+        z = np.hstack([records[r].T for r in which])
+        t = np.arange(n) * dt
+        b = basis(t, poles)
+        first = project(Group(t, z), np.column_stack([b, t[:, None] * b[:, 2:]])).resid
+        s = np.sqrt(np.sum(first**2, axis=0) / max(n - 2 - 4 * poles.size, 1))
+        s = np.maximum(s, FLOOR * np.sqrt(np.mean(z**2, axis=0)) + np.finfo(float).tiny)
+        groups.append(Group(t, z / s))
+        layouts.append(Layout(which, s.reshape(which.size, -1), n))
+        projections.append(project(groups[-1], b))
+        firsts.append(first / s)
+    return groups, layouts, projections, firsts
+
+
+def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float) -> float | None:
+    """Frequency (rad/s) of the significant peak of the summed periodogram of the
+    weighted residuals (n_g, M_g) away from every pole (module docstring, step 2), or None."""
+    nfft = max(r.shape[0] for r in resids)
+    power = sum(2 * np.sum(np.abs(np.fft.rfft(r, nfft, axis=0)) ** 2, axis=1) / r.shape[0] for r in resids)
+    step = 2 * np.pi / (nfft * dt)
+    freq = np.arange(power.size) * step
+    ok = (freq > 0) & (freq < np.pi / dt)
+    ok &= np.all(np.abs(freq[:, None] - poles.imag[None, :]) > NEAR * step, axis=1)
+    if not ok.any():
+        return None
+    b = int(np.argmax(np.where(ok, power, -np.inf)))
+    columns = sum(r.shape[1] for r in resids)
+    return float(freq[b]) if chi2.sf(power[b], 2 * columns) * ok.sum() < alpha else None
+
+
+def candidates(omega: np.ndarray, flagged: np.ndarray, span: float) -> list[tuple[int, ...]]:
+    """Neighbouring reported modes (ascending ``omega``) with ``|delta omega| T <
+    RESOLVED``, and the flagged modes not in such a pair."""
+    pairs: list[tuple[int, ...]] = []
+    for j in np.flatnonzero(np.diff(omega) * span < RESOLVED):
+        if not pairs or pairs[-1][1] != j:
+            pairs.append((int(j), int(j) + 1))
+    taken = {j for pair in pairs for j in pair}
+    return pairs + [(int(j),) for j in flagged if j not in taken]
+
+
+def _split(groups: list[Group], layouts: list[Layout], poles: np.ndarray, idx: tuple[int, ...], span: float,
+           level: float) -> tuple[complex, ModeFit] | None:
+    """The centre (the mean pole of the modes ``idx``: one, or a reported
+    pair) and two-mode fit if it passes the tests of step 4, else None."""
+    merged = np.concatenate([[poles[list(idx)].mean()], np.delete(poles, idx)])
+    fo = first_order(groups, layouts, merged, 0)
+    misfit, df = rank_one_misfit(fo)
+    if chi2.sf(misfit, df) >= level:  # the records move the mode(s) in one proportion: no split
+        return None
+    single, start, part = pencil(fo, merged[0])
+    half = RESOLVED / span
+    if not np.all(np.abs(start - merged[0]) < half):
+        start = poles[list(idx)] if len(idx) == 2 else merged[0] + 0.5j * half * np.array([-1.0, 1.0])
+        part = np.vstack([single, single])
+    locs = [local_space(g, merged[1:], merged[0]) for g in groups]
+    one = fit_modes(locs, layouts, merged.size - 1, merged[:1], single)
+    two = fit_modes(locs, layouts, merged.size - 1, start, part)
+    m, records = two.shapes.shape[0], two.participations.shape[1]
+    ratio = (one.rss - two.rss) / (two.rss / two.dof)
+    diff = np.array([[1.0, 0, -1, 0], [0, 1, 0, -1]])
+    delta = diff @ np.column_stack([two.poles.real, two.poles.imag]).ravel()
+    wald = delta @ la.pinvh(diff @ two.cov @ diff.T) @ delta
+    offset = two.poles - merged[0]
+    inside = np.all(np.maximum(np.abs(offset.real), np.abs(offset.imag)) < (1 - 1e-6) * half)
+    ok = ratio > chi2.isf(level, 2 + m + 2 * (records - 1)) and wald > chi2.isf(level, 2) and inside
+    return (merged[0], two) if ok else None
+
+
+def split_free_decays(traces: Sequence[Trace], records: list[np.ndarray], dt: float, omega: np.ndarray,
+                      zeta: np.ndarray, shapes: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
+                      refine: str) -> Refinement:
+    """:func:`split_close_modes` on the traces' free responses (``records``
+    (m, n) from the first sample on) when ``refine`` is ``auto`` and there are
+    at least two traces, each a free response (:func:`free_start`); else the
+    modes unchanged (from one record a pair's shapes rest on second-order
+    terms alone)."""
+    if refine not in REFINE:
+        raise IdentificationError(f"unknown refine {refine!r}; known: {', '.join(REFINE)}", field="refine")
+    starts = [free_start(t) for t in traces]
+    if refine == "off" or None in starts or len(traces) < 2:
+        k = omega.size
+        return Refinement(omega, zeta, omega_std, zeta_std, shapes, np.arange(k), np.zeros(k, dtype=bool))
+    return split_close_modes([y[:, k:] for y, k in zip(records, starts)], dt, omega, zeta, shapes,
+                             omega_std, zeta_std)
+
+
+def split_close_modes(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray,
+                      shapes: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
+                      alpha: float = ALPHA) -> Refinement:
+    """Modes (``omega`` rad/s ascending, ``zeta``, complex ``shapes`` (m, K),
+    standard errors) with every close pair refitted or split out of one mode
+    (module docstring); ``records`` the free responses (m, n_r) from their start, ``dt`` s."""
+    k = omega.size
+    rows = [(omega[j], zeta[j], omega_std[j], zeta_std[j], shapes[:, j], j, False) for j in range(k)]
+    if k:
+        with threadpool_limits(1, "blas"):  # small factorisations: threads only cost here
+            rows = _refine(records, dt, omega, zeta, rows, alpha)
+    rows = sorted(rows, key=lambda r: r[0])
+    cols = list(zip(*rows)) if rows else [[]] * 7
+    return Refinement(*(np.array(c, dtype=float) for c in cols[:4]),
+                      np.column_stack(cols[4]) if rows else shapes, np.array(cols[5], dtype=int),
+                      np.array(cols[6], dtype=bool))
+
+
+def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, rows: list,
+            alpha: float) -> list:
+    """Steps 1-5 of the module docstring on the rows (omega, zeta, their
+    errors, shape, source, refined) of the SSI modes."""
+    k = omega.size
+    poles = -zeta * omega + 1j * omega * np.sqrt(np.maximum(1 - zeta**2, 0.0))
+    span = max(y.shape[1] for y in records) * dt
+    step = 2 * np.pi / span
+    while True:
+        groups, layouts, projections, firsts = weighted_groups(records, dt, poles)
+        peak = residual_peak(firsts, poles, dt, alpha) if poles.size < 2 * k else None
+        if peak is None:
+            break
+        poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
+    stats, df = score_statistics(groups, projections, poles, k)
+    level = alpha / k
+    pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span)
+             if (found := _split(groups, layouts, poles, idx, span, level)) is not None]
+    if not pairs:
+        return rows
+    # the noise levels again, without the pairs' t e^(lambda t) terms in the residual, and the pairs refitted
+    taken = [j for idx, _, _ in pairs for j in idx]
+    poles = np.concatenate([np.delete(poles, taken)] + [two.poles for _, _, two in pairs])
+    groups, layouts, _, _ = weighted_groups(records, dt, poles)
+    for idx, center, two in pairs:
+        others = poles[~np.isin(poles, two.poles)]
+        locs = [local_space(g, others, center) for g in groups]
+        two = fit_modes(locs, layouts, others.size, two.poles, two.participations)
+        w, z, se_w, se_z = omega_zeta(two.poles, two.cov)
+        rows += [(w[a], z[a], se_w[a], se_z[a], two.shapes[:, a] / la.norm(two.shapes[:, a]), idx[0], True)
+                 for a in range(2)]
+    return [r for j, r in enumerate(rows) if j not in taken]
