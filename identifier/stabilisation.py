@@ -14,10 +14,11 @@ mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
 one shape never yields two modes. A cluster is a mode when its poles come
 from at least ``min_fraction`` of the orders; its frequency and damping ratio
-are the medians over its poles in the lower half of its orders, its shape
-that of the pole nearest the median frequency among them. (Orders well
-above the structure's own fit noise too: there a noise pole near a mode
-shares its shape and pulls its damping, mostly down, in random data.) Clusters closer than ``freq_tol`` with shapes
+are the medians over all its stable poles, its shape that of the pole
+nearest the median frequency among them. (Only the lower half of the orders
+was tried, against noise poles at high orders; with 15 modes in random data
+it biased mode 10 by -0.12 % over 20 realisations, coverage 0.55, while all
+orders give -0.02 % and damping medians within 5.3 %.) Clusters closer than ``freq_tol`` with shapes
 of MAC above ``mac_min`` are one mode (the larger cluster is kept).
 Fails when a mode is stable in too few orders (very weak or very close to
 a stronger mode): it is then not reported.
@@ -46,7 +47,7 @@ class Criteria:
 class Mode:
     """One selected mode: its representative pole (order, index in that
     order's :class:`Poles`), the stable poles that support it ((order, index)
-    pairs), those of them in the lower half of its orders (``used``) and its
+    pairs), those its estimates use (``used``, all of them) and its
     estimates, the medians over these: ``omega`` rad/s, ``zeta``."""
 
     order: int
@@ -112,13 +113,12 @@ def select_modes(poles: list[Poles], criteria: Criteria) -> tuple[list[Mode], li
     for c in _clusters(poles, flags, criteria):
         if len({i for i, _ in c}) < need:
             continue
-        orders = sorted({i for i, _ in c})
-        low = [(i, j) for i, j in c if i <= orders[(len(orders) - 1) // 2]]
-        omega = np.array([poles[i].omega[j] for i, j in low])
-        zeta = np.array([poles[i].zeta[j] for i, j in low])
-        i, j = low[int(np.argmin(np.abs(omega - np.median(omega))))]
+        used = list(c)
+        omega = np.array([poles[i].omega[j] for i, j in used])
+        zeta = np.array([poles[i].zeta[j] for i, j in used])
+        i, j = used[int(np.argmin(np.abs(omega - np.median(omega))))]
         modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
-                          tuple((poles[a].order, int(b)) for a, b in low),
+                          tuple((poles[a].order, int(b)) for a, b in used),
                           float(np.median(omega)), float(np.median(zeta))))
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
 
