@@ -16,7 +16,7 @@ Steps (each its own module):
    every channel (``C`` from the first block row of all channels,
    ``[R_1 .. R_q] V S^-1``);
 3. stabilisation across orders and clustering of the stable poles into modes,
-   estimated over the lower half of their orders (:mod:`identifier.stabilisation`);
+   estimated as medians over all their stable poles (:mod:`identifier.stabilisation`);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
@@ -52,7 +52,7 @@ from .ssi_covariance import covariances, is_free_decay, project, reference_chann
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency
 from .ssi_hankel import BlockHankel, leading_svd
 from .ssi_poles import Poles, Subspace, mpc, poles_at, real_shapes, subspace
-from .stabilisation import Criteria, select_modes
+from .stabilisation import Criteria, Mode, select_modes
 from .traces import Channel, Trace
 
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
@@ -124,7 +124,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
         omega_se, zeta_se, missed = jackknife(cov, W, (p, q), U, by_order,
-                                              [(_spread(md.used), md.omega) for md in modes])
+                                              list(zip(_spread(modes), [md.omega for md in modes])))
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
@@ -148,12 +148,24 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "stabilisation": _diagram(poles, flags)})
 
 
-def _spread(members: tuple[tuple[int, int], ...], count: int = 6) -> tuple[tuple[int, int], ...]:
-    """A mode's stable poles at up to ``count`` model orders spread over its
-    orders (the jackknife replicates repeat the median over these)."""
-    orders = sorted({n for n, _ in members})
-    keep = {orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))}
-    return tuple(pair for pair in members if pair[0] in keep)
+def _spread(modes: list[Mode], count: int = 8) -> list[tuple[tuple[int, int], ...]]:
+    """Per mode its stable poles at the orders the jackknife replicates
+    repeat: ``count`` orders spread over all the modes' orders, shared so
+    that each replicate's pole tracking runs at few orders; a mode with
+    stable poles at fewer than three of them (or all its orders, if fewer)
+    gets ``count`` orders spread over its own."""
+    def spread(orders: list[int]) -> set[int]:
+        return {orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))}
+
+    grid = spread(sorted({n for md in modes for n, _ in md.used})) if modes else set()
+    picks = []
+    for md in modes:
+        own = sorted({n for n, _ in md.used})
+        keep = grid.intersection(own)
+        if len(keep) < min(3, len(own)):
+            keep = spread(own)
+        picks.append(tuple(pair for pair in md.used if pair[0] in keep))
+    return picks
 
 
 def _diagram(poles: list[Poles], flags: list[np.ndarray]) -> dict[str, list]:

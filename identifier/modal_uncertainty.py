@@ -4,11 +4,11 @@ delete-one-group jackknife.
 The covariance sums are kept per sample group (``G`` groups,
 :mod:`identifier.ssi_covariance`); replicate ``g`` repeats the identification
 from every group but ``g``. Its subspace is one step of subspace iteration
-from the full data's leading left singular vectors ``U``: ``Q_g = orth(H_g
-H_g^T U)`` column by column (Householder QR), so that its first ``n``
-columns span the replicate's subspace of order ``n``; two Hankel products by
-FFT (:mod:`identifier.ssi_hankel`, the FFT of ``U`` shared) and a QR per
-replicate, two replicates at a time. (The cheaper first-order subspace
+from the full data's leading left singular vectors ``U``: ``Q_g = H_g H_g^T
+U R^-1`` with ``R`` upper triangular (see :func:`_bases`), so that its first
+``n`` columns span the replicate's subspace of order ``n``; two Hankel
+products by FFT (:mod:`identifier.ssi_hankel`, the FFT of ``U`` shared) and a
+triangular solve per replicate, two replicates at a time. (The cheaper first-order subspace
 ``U + (I - U U^T) E_g V S^-1`` fails for free decays: a mode that one group
 holds almost alone loses nearly all of its singular value when that group
 is left out, far outside first order, and the errors came out 2-4 times too
@@ -23,9 +23,11 @@ is near the full data's ``M = Psi diag(mu) Psi^-1``, and with ``W = Psi^-1
 near one (``|W_ik| > 0.3 |mu_k - mu_i|``, Im ``mu_i`` > 0) is followed through the
 eigenvectors of that small group instead. A mode is found again at an order
 when its pole stays within 5 % of the mode's frequency with MAC > 0.8 to the
-full data's shape; the replicate takes the medians over up to six of the
-orders the full-data estimate uses (the lower half of the mode's stable
-poles' orders), when it is found at at least half of them. With ``theta_g``
+full data's shape; the replicate takes the medians over the mode's stable
+poles at a few orders (eight spread over all the modes' orders and shared
+by them, so that the tracking runs at eight orders, or eight of the mode's
+own when it is stable at fewer than three of those; chosen in
+:mod:`identifier.modal`), when it is found at at least half of them. With ``theta_g``
 the replicates and ``theta_.`` their mean,
 
     se^2 = (G - 1) / G sum_g (theta_g - theta_.)^2     (Quenouille-Tukey).
@@ -48,6 +50,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.linalg as la
+from scipy.linalg.blas import dtrsm
 
 from .ssi_covariance import Covariances, project
 from .ssi_hankel import BlockHankel
@@ -101,17 +104,24 @@ def _mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _bases(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray
            ) -> tuple[np.ndarray, ...]:
-    """Stacked over the replicates: Gram ``Q_up^T Q_up``, shift ``Q_up^T Q_down``,
-    ``U^T Q`` (G, N, N) and first block rows (G, rows, N) of their bases ``Q``
-    (two replicates at a time: FFT and LAPACK release the GIL)."""
+    """Stacked over the replicates: Gram ``B_up^T B_up``, shift ``B_up^T B_down``,
+    ``U^T B`` (G, N, N) and first block rows (G, rows, N) of their bases
+    ``B = Y R^-1``, ``Y = H_g H_g^T U``, ``U^T Y = Q_z R`` (QR of the small
+    N x N matrix): ``R`` is upper triangular, so the first ``n`` columns of
+    ``B`` span those of ``Y`` for every order ``n``, and ``B = U Q_z + (I -
+    U U^T) Y R^-1`` is near orthonormal (a Householder QR of ``Y``, which
+    spans singular values over many decades, costs twice as much for the
+    same poles). Two replicates at a time: FFT and BLAS release the GIL."""
     rows = U.shape[0] // blocks[0]
     hankels = [BlockHankel(project(cov.mean(leave_out=g), W), *blocks) for g in range(cov.sums.shape[0])]
     Uf = hankels[0].transform(U, blocks[0])
 
     def basis(H: BlockHankel) -> tuple[np.ndarray, ...]:
-        Q = la.qr(H @ H.rmatmul(U, Uf), mode="economic", overwrite_a=True)[0]
-        last = Q[-rows:]
-        return np.eye(U.shape[1]) - last.T @ last, Q[:-rows].T @ Q[rows:], U.T @ Q, Q[:rows]
+        Y = H @ H.rmatmul(U, Uf)
+        R = la.qr(U.T @ Y, mode="r")[0]
+        B = dtrsm(1.0, R, Y.T, side=0, trans_a=1).T  # Y R^-1
+        up, down = B[:-rows], B[rows:]
+        return up.T @ up, up.T @ down, U.T @ B, B[:rows]
 
     with ThreadPoolExecutor(2) as pool:
         parts = list(pool.map(basis, hankels))
@@ -128,7 +138,8 @@ def jackknife(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U
     if not targets:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
     groups = cov.sums.shape[0]
-    U = U[:, :max(n for members, _ in targets for n, _ in members)]
+    top = max(n for members, _ in targets for n, _ in members)
+    U = U[:, :top]
     space = _bases(cov, W, blocks, U)
     found: list[list[list[tuple[float, float]]]] = [[[] for _ in targets] for _ in range(groups)]
     for n in sorted({n for members, _ in targets for n, _ in members}):
