@@ -45,7 +45,7 @@ from threadpoolctl import threadpool_limits
 from structbench.models import Model
 
 from .errors import IdentificationError
-from .modal_uncertainty import jackknife
+from .modal_uncertainty import Replicates, jackknife
 from .mode_split import split_free_decays
 from .results import Identification
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
@@ -116,6 +116,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     W = row_projection(full, mo)
     with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
         U, s, V = leading_svd(BlockHankel(project(full, W), p, q), order_cap, power=1)
+        replicates = Replicates(cov, W, (p, q), U)
         rows = subspace(U, mo)
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
@@ -123,7 +124,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         by_order = {pl.order: pl for pl in poles}
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
-        omega_se, zeta_se, missed = jackknife(cov, W, (p, q), U, by_order,
+        omega_se, zeta_se, missed = jackknife(replicates, by_order,
                                               list(zip(_spread(modes), [md.omega for md in modes])))
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \

@@ -50,7 +50,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.linalg as la
-from scipy.linalg.blas import dtrsm
+from scipy.linalg.blas import dsyrk, dtrsm
 
 from .ssi_covariance import Covariances, project
 from .ssi_hankel import BlockHankel
@@ -76,7 +76,8 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     psi, mu0 = poles.vectors[:, cols], poles.mu[cols]
     T = align[:, :n, :n]
     M = T @ np.linalg.solve(gram[:, :n, :n], shift[:, :n, :n] @ np.linalg.inv(T))  # (G, n, n): M_g
-    W = poles.inverse @ (M @ psi)
+    inverse = np.linalg.inv(poles.vectors)  # rows: the left eigenvectors, chi_i^H psi_j = delta_ij
+    W = inverse @ (M @ psi)
     own = (slice(None), cols, np.arange(cols.size))
     W[own] -= mu0
     mu = mu0 + W[own]
@@ -89,7 +90,7 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     strong = (np.abs(mix) > 0.3) & (poles.mu.imag > 0)[None, :, None]
     for g, c in zip(*np.nonzero(strong.any(axis=1))):
         group = np.union1d(cols[c], np.flatnonzero(strong[g, :, c]))
-        lam, y = np.linalg.eig(poles.inverse[group] @ M[g] @ poles.vectors[:, group])
+        lam, y = np.linalg.eig(inverse[group] @ M[g] @ poles.vectors[:, group])
         fits = _mac(shape[:, [c]], base[g][:, group] @ y)
         best = int(np.argmax(fits))
         mu[g, c], mac[g, c] = lam[best], fits[best]
@@ -102,50 +103,57 @@ def _mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs(np.sum(a.conj() * b, -2)) ** 2 / np.sum(np.abs(a) ** 2, -2) / np.sum(np.abs(b) ** 2, -2)
 
 
-def _bases(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray
-           ) -> tuple[np.ndarray, ...]:
-    """Stacked over the replicates: Gram ``B_up^T B_up``, shift ``B_up^T B_down``,
-    ``U^T B`` (G, N, N) and first block rows (G, rows, N) of their bases
-    ``B = Y R^-1``, ``Y = H_g H_g^T U``, ``U^T Y = Q_z R`` (QR of the small
-    N x N matrix): ``R`` is upper triangular, so the first ``n`` columns of
-    ``B`` span those of ``Y`` for every order ``n``, and ``B = U Q_z + (I -
-    U U^T) Y R^-1`` is near orthonormal (a Householder QR of ``Y``, which
-    spans singular values over many decades, costs twice as much for the
-    same poles). Two replicates at a time: FFT and BLAS release the GIL."""
-    rows = U.shape[0] // blocks[0]
-    hankels = [BlockHankel(project(cov.mean(leave_out=g), W), *blocks) for g in range(cov.sums.shape[0])]
-    Uf = hankels[0].transform(U, blocks[0])
+class Replicates:
+    """The replicates' bases, computed in the background from the moment the
+    full data's ``U`` (p m, N) is known (two threads; FFT and BLAS release
+    the GIL), while the caller finds the full data's poles and modes.
 
-    def basis(H: BlockHankel) -> tuple[np.ndarray, ...]:
-        Y = H @ H.rmatmul(U, Uf)
-        R = la.qr(U.T @ Y, mode="r")[0]
-        B = dtrsm(1.0, R, Y.T, side=0, trans_a=1).T  # Y R^-1
-        up, down = B[:-rows], B[rows:]
-        return up.T @ up, up.T @ down, U.T @ B, B[:rows]
+    Replicate ``g``'s basis is ``B = Y R^-1``, ``Y = H_g H_g^T U``, ``U^T Y =
+    Q_z R`` (QR of the small N x N matrix): ``R`` is upper triangular, so the
+    first ``n`` columns of ``B`` span those of ``Y`` for every order ``n``,
+    and ``B = U Q_z + (I - U U^T) Y R^-1`` is near orthonormal (a Householder
+    QR of ``Y``, which spans singular values over many decades, costs twice
+    as much for the same poles)."""
 
-    with ThreadPoolExecutor(2) as pool:
-        parts = list(pool.map(basis, hankels))
-    return tuple(np.stack(x) for x in zip(*parts))
+    def __init__(self, cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray):
+        self.U, self.dt, self.groups = U, cov.dt, cov.sums.shape[0]
+        rows = U.shape[0] // blocks[0]
+        Uf = BlockHankel(project(cov.mean(), W), *blocks).transform(U, blocks[0])
+
+        def basis(g: int) -> tuple[np.ndarray, ...]:
+            H = BlockHankel(project(cov.mean(leave_out=g), W), *blocks)
+            Y = H @ H.rmatmul(U, Uf)
+            Z = U.T @ Y
+            R = la.qr(Z, mode="r")[0]
+            B = dtrsm(1.0, R, Y.T, side=0, trans_a=1).T  # Y R^-1
+            last = B[-rows:]
+            gram = dsyrk(1.0, B.T, trans=0, lower=0)  # B^T B, upper triangle
+            gram = np.triu(gram) + np.triu(gram, 1).T - last.T @ last
+            return gram, B[:-rows].T @ B[rows:], dtrsm(1.0, R, Z, side=1), B[:rows]  # U^T B = Z R^-1
+
+        pool = ThreadPoolExecutor(2)
+        self._parts = [pool.submit(basis, g) for g in range(self.groups)]
+        pool.shutdown(wait=False)
+
+    def space(self) -> tuple[np.ndarray, ...]:
+        """Stacked over the replicates: Gram ``B_up^T B_up``, shift ``B_up^T
+        B_down``, ``U^T B`` (G, N, N) and first block rows (G, rows, N)."""
+        return tuple(np.stack(x) for x in zip(*(part.result() for part in self._parts)))
 
 
-def jackknife(cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray,
-              poles: dict[int, Poles], targets: list[Target]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Target]
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard errors (k,) of omega (rad/s) and zeta of the target modes
-    (``W`` the row channels' projection or None, ``blocks`` the Hankel's
-    block rows and columns, ``U`` (p m, N) the full data's leading left
-    singular vectors, ``poles`` its poles by order), NaN for a mode missing
-    from a replicate; and how many replicates missed each mode (k,)."""
+    (``poles``: the full data's poles by order), NaN for a mode missing from
+    a replicate; and how many replicates missed each mode (k,)."""
+    space, U, groups = replicates.space(), replicates.U, replicates.groups
     if not targets:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
-    groups = cov.sums.shape[0]
-    top = max(n for members, _ in targets for n, _ in members)
-    U = U[:, :top]
-    space = _bases(cov, W, blocks, U)
     found: list[list[list[tuple[float, float]]]] = [[[] for _ in targets] for _ in range(groups)]
     for n in sorted({n for members, _ in targets for n, _ in members}):
         which = [(k, j) for k, (members, _) in enumerate(targets) for order, j in members if order == n]
         try:
-            omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), cov.dt)
+            omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), replicates.dt)
         except np.linalg.LinAlgError:  # a replicate's subspace lost a direction of this order: nothing found
             continue
         w0 = np.array([targets[k][1] for k, _ in which])

@@ -25,9 +25,8 @@ class Poles:
     ``shapes`` (m, k) complex, scaled back to the channels' units, each column
     of unit norm; and the whole eigen-decomposition ``M = Psi diag(mu) Psi^-1``
     of the order's ``M = G_n^-1 K_n`` that they come from (for the
-    jackknife's perturbation): ``mu`` (n,), ``vectors`` ``Psi`` (n, n),
-    ``inverse`` ``Psi^-1`` (its rows the left eigenvectors, ``chi_i^H psi_j =
-    delta_ij``) and ``index`` (k,) of each kept pole in ``mu``."""
+    jackknife's perturbation): ``mu`` (n,), ``vectors`` ``Psi`` (n, n) and
+    ``index`` (k,) of each kept pole in ``mu``."""
 
     order: int
     omega: np.ndarray
@@ -35,7 +34,6 @@ class Poles:
     shapes: np.ndarray
     mu: np.ndarray
     vectors: np.ndarray
-    inverse: np.ndarray
     index: np.ndarray
 
 
@@ -74,8 +72,7 @@ def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles
     shapes = (space.top[:, :n] @ psi[:, keep]) * scale[:, None]
     shapes /= np.linalg.norm(shapes, axis=0)
     ascending = np.argsort(omega)
-    return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending], mu, psi, np.linalg.inv(psi),
-                 keep[ascending])
+    return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending], mu, psi, keep[ascending])
 
 
 def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
