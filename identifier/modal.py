@@ -56,6 +56,7 @@ from .stabilisation import Criteria, Mode, select_modes
 from .traces import Channel, Trace
 
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
+UNCERTAINTY = ("jackknife", "off")
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndarray], list[Channel], float]:
@@ -86,13 +87,19 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
 
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
-             min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto") -> Identification:
+             min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto",
+             uncertainty: str = "jackknife") -> Identification:
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
     all jackknife replicates but at most one find again (spurious noise modes
     do not). ``refine``: ``auto`` fits free responses whole to split close
-    pairs (:mod:`identifier.mode_split`), ``off`` does not."""
+    pairs (:mod:`identifier.mode_split`), ``off`` does not. ``uncertainty``:
+    ``off`` skips the jackknife (about half the time): no standard errors
+    (NaN) and no check that replicates find each mode again."""
+    if uncertainty not in UNCERTAINTY:
+        raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
+                                  field="uncertainty")
     records, channels, dt = sensor_records(traces, quantity)
     m = records[0].shape[0]
     r = min(references, m)
@@ -116,7 +123,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     W = row_projection(full, mo)
     with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
         U, s, V = leading_svd(BlockHankel(project(full, W), p, q), order_cap, power=1)
-        replicates = Replicates(cov, W, (p, q), U)
+        replicates = Replicates(cov, W, (p, q), U) if uncertainty == "jackknife" else None
         rows = subspace(U, mo)
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
@@ -125,7 +132,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
         omega_se, zeta_se, missed = jackknife(replicates, by_order,
-                                              list(zip(_spread(modes), [md.omega for md in modes])))
+                                              list(zip(_spread(modes), [md.omega for md in modes]))) \
+            if replicates else (np.full(len(modes), np.nan), np.full(len(modes), np.nan), np.zeros(len(modes)))
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
@@ -143,7 +151,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         mpc=mpc(shapes).tolist(),
         mode_shapes_complex=[[[float(v.real), float(v.imag)] for v in col] for col in shapes.T],
         details={"algorithm": "ssi-cov", "quantity": channels[0].quantity, "block_rows": p, "block_columns": q,
-                 "references": r, "segments": segments, "max_order": order_cap,
+                 "references": r, "segments": segments, "max_order": order_cap, "uncertainty": uncertainty,
                  "orders": [md.order for md in modes], "support": [md.support for md in modes],
                  "refined": split.refined.tolist(),
                  "stabilisation": _diagram(poles, flags)})

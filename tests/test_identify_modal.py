@@ -236,3 +236,21 @@ def test_cli_one_line_and_exit_2(beam, tmp_path, capsys):
     assert main(["identify", str(folder), "--method", "modal", "--block-rows", "20", "--json"]) == 0
     out = capsys.readouterr().out
     assert '"damping_std"' in out and (folder / "results" / "modal-stabilisation-00.png").is_file()
+
+
+def test_uncertainty_off_same_modes_without_errors(damped, tmp_path):
+    """``uncertainty="off"`` skips only the jackknife: on the damped beam's
+    noisy impulse response the modes it reports are those of the default
+    run (whose replicates find every one again), bit for bit, with NaN
+    errors; an unknown value is named."""
+    trace = beam_trace(tmp_path, damped, 200.0, 0.05, noise=0.02, seed=3, quantity="velocity")
+    full = identify([trace], damped)
+    quick = identify([trace], damped, uncertainty="off")
+    assert quick.omega == full.omega and quick.damping == full.damping
+    assert quick.mode_shapes == full.mode_shapes
+    assert np.isnan(quick.omega_std).all() and np.isnan(quick.damping_std).all()
+    assert np.isfinite(full.omega_std).sum() >= 8
+    assert quick.details["uncertainty"] == "off"
+    with pytest.raises(IdentificationError, match="unknown uncertainty 'none'") as err:
+        identify([trace], damped, uncertainty="none")
+    assert err.value.field == "uncertainty"

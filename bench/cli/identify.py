@@ -85,6 +85,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help=f"share of the orders a mode must be stable in (default {_default(md, 'min_fraction')})")
     group.add_argument("--refine", choices=known[md].choices["refine"],
                        help="auto: fit free responses whole to split close pairs of modes (default auto)")
+    group.add_argument("--uncertainty", choices=known[md].choices["uncertainty"],
+                       help="jackknife: standard errors of frequencies and damping ratios; off: none, "
+                            "about half the time (default jackknife)")
 
 
 def generic(items: list[str]) -> dict[str, Any]:

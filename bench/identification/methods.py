@@ -71,9 +71,10 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            model="optional"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-            "min_fraction": 0.3, "refine": "auto"},
+            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
-           {"quantity": modal.QUANTITIES, "refine": mode_split.REFINE}, model="optional"),
+           {"quantity": modal.QUANTITIES, "refine": mode_split.REFINE, "uncertainty": modal.UNCERTAINTY},
+           model="optional"),
 )}
 
 
