@@ -21,6 +21,8 @@ Steps (each its own module):
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
    dropped (a mode missed by one replicate is kept without stated errors).
+   The replicates' subspaces are computed in the background while steps 2-3
+   run; ``uncertainty="off"`` skips this step (about half the time).
 
 Assumptions: a linear time-invariant structure, the response either a free
 decay or stationary (unmeasured broadband excitation), white sensor noise;
