@@ -6,7 +6,8 @@ SSI-cov uses lags of a few seconds, so two modes whose poles differ by
 ``T`` look like one (or come out as two with mixed shapes). Over the whole
 record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 (:mod:`identifier.close_pair`). Steps, at level ``alpha`` split over the
-``K`` reported modes (Bonferroni, ``alpha / K`` each):
+``K`` modes (Bonferroni, ``alpha / K`` each; ``K`` the reported modes and
+those of step 2):
 
 1. Each record's channels are divided by their noise level ``s_ri``: the RMS
    of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
@@ -16,13 +17,16 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 2. Modes SSI did not report but that residual holds (a peak of the summed
    periodogram ``P(omega) = sum 2 |DFT r|^2 / n ~ chi^2(2M)`` over the ``M``
    weighted columns, above its ``1 - alpha / bins`` quantile, further than ``NEAR``
-   bins ``2 pi / T`` from every pole) are fitted and added, unreported (at
-   most ``K``), so that their signal does not leak into the tests; the noise
-   levels are estimated again.
+   bins ``2 pi / T`` from every pole) are fitted and added (at most ``K``),
+   so that their signal does not leak into the tests; the noise levels are
+   estimated again. Such a mode (one SSI dropped: a pair whose poles mix
+   their shapes differently at every model order fails stabilisation's MAC
+   test or the jackknife's) is reported: split if it passes step 4, else as
+   one mode fitted with residues of rank one across the records.
 3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
    (score test, :func:`identifier.close_pair.score_statistics`, at level
-   ``alpha``: it only picks candidates, the tests of step 4 decide), and two
-   reported modes with ``|delta omega| T < RESOLVED``.
+   ``alpha``: it only picks candidates, the tests of step 4 decide), two
+   reported modes with ``|delta omega| T < RESOLVED``, and every mode of step 2.
 4. A candidate is split (or its reported pair refitted) only if the records
    move it in different proportions: the residues ``[c_1 ... c_R]`` of its
    pole (with a ``t e^(lambda t)`` term) are not rank one
@@ -37,11 +41,12 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
    ``chi^2(2)``, and (c) neither pole stops at the band's edge. A genuine single
    mode fails (a), a pair moved in one proportion by every record (no record
    tells the shapes apart) fails step 4, a repeated root (residues of rank two,
-   no splitting) fails (b): each stays as SSI reported it.
+   no splitting) fails (b): each stays as SSI reported it (a mode of step 2
+   as one mode).
 5. With the noise levels estimated again (the pairs now in the model) each
-   kept pair is fitted once more; its frequencies, damping ratios and standard
-   errors come from that fit (Gauss-Newton covariance), its shapes are the
-   fitted (real) ``phi``.
+   kept pair and each mode of step 2 is fitted once more; its frequencies,
+   damping ratios and standard errors come from that fit (Gauss-Newton
+   covariance), its shapes are the fitted (real) ``phi``.
 
 Needs two or more records: from one, a pair's shapes rest on second-order
 terms alone. Assumes free response from the start of each record (a linear
@@ -92,8 +97,9 @@ def free_start(trace: Trace) -> int | None:
 class Refinement:
     """The modes after splitting (k >= input count): ``omega`` rad/s,
     ``zeta``, standard errors, complex ``shapes`` (m, k) of unit norm,
-    ``source`` (k,) the input mode each comes from, ``refined`` (k,) True
-    for the modes of a split pair (values from the free-decay fit)."""
+    ``source`` (k,) the input mode each comes from (-1: found in the fit's
+    residual, step 2), ``refined`` (k,) True for the modes whose values come
+    from the free-decay fit (a split pair, a mode found in the residual)."""
 
     omega: np.ndarray
     zeta: np.ndarray
@@ -219,6 +225,16 @@ def split_close_modes(records: list[np.ndarray], dt: float, omega: np.ndarray, z
                       np.array(cols[6], dtype=bool))
 
 
+def _single(groups: list[Group], layouts: list[Layout], poles: np.ndarray, j: int) -> tuple[complex, ModeFit]:
+    """Pole ``j`` fitted as one mode with residues of rank one across the
+    records (participations started from the leading singular vector of its
+    first-order residues ``C``)."""
+    _, sv, vh = la.svd(first_order(groups, layouts, poles, j).c, full_matrices=False)
+    others = np.delete(poles, j)
+    locs = [local_space(g, others, poles[j]) for g in groups]
+    return poles[j], fit_modes(locs, layouts, others.size, poles[[j]], (sv[0] * vh[0])[None, :])
+
+
 def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, rows: list,
             alpha: float) -> list:
     """Steps 1-5 of the module docstring on the rows (omega, zeta, their
@@ -234,20 +250,27 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
             break
         poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
     stats, df = score_statistics(groups, projections, poles, k)
-    level = alpha / k
-    pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span)
-             if (found := _split(groups, layouts, poles, idx, span, level)) is not None]
-    if not pairs:
+    level = alpha / poles.size
+    fits = []
+    for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span) + \
+            [(j,) for j in range(k, poles.size)]:
+        found = _split(groups, layouts, poles, idx, span, level)
+        if found is None and idx[0] >= k:  # a mode found in the residual that does not split: one mode
+            found = _single(groups, layouts, poles, idx[0])
+        if found is not None:
+            fits.append((idx, *found))
+    if not fits:
         return rows
-    # the noise levels again, without the pairs' t e^(lambda t) terms in the residual, and the pairs refitted
-    taken = [j for idx, _, _ in pairs for j in idx]
-    poles = np.concatenate([np.delete(poles, taken)] + [two.poles for _, _, two in pairs])
+    # the noise levels again, without the fitted modes' t e^(lambda t) terms in the residual, and the fits repeated
+    taken = [j for idx, _, _ in fits for j in idx]
+    poles = np.concatenate([np.delete(poles, taken)] + [fit.poles for _, _, fit in fits])
     groups, layouts, _, _ = weighted_groups(records, dt, poles)
-    for idx, center, two in pairs:
-        others = poles[~np.isin(poles, two.poles)]
+    rows = [r for j, r in enumerate(rows) if j not in taken]
+    for idx, center, fit in fits:
+        others = poles[~np.isin(poles, fit.poles)]
         locs = [local_space(g, others, center) for g in groups]
-        two = fit_modes(locs, layouts, others.size, two.poles, two.participations)
-        w, z, se_w, se_z = omega_zeta(two.poles, two.cov)
-        rows += [(w[a], z[a], se_w[a], se_z[a], two.shapes[:, a] / la.norm(two.shapes[:, a]), idx[0], True)
-                 for a in range(2)]
-    return [r for j, r in enumerate(rows) if j not in taken]
+        fit = fit_modes(locs, layouts, others.size, fit.poles, fit.participations)
+        w, z, se_w, se_z = omega_zeta(fit.poles, fit.cov)
+        rows += [(w[a], z[a], se_w[a], se_z[a], fit.shapes[:, a] / la.norm(fit.shapes[:, a]),
+                  idx[0] if idx[0] < k else -1, True) for a in range(fit.poles.size)]
+    return rows

@@ -200,9 +200,6 @@ def test_membrane_noisy_two_records_resolve_both_pairs_with_200_block_rows(membr
     _two_records_resolve_both_pairs(membrane, tmp_path, 200)
 
 
-@pytest.mark.xfail(strict=True, reason="known limit: the default 250 block rows for 16 channels make the "
-                   "0.009 % pair's two poles swap between model orders, so stabilisation drops the mode "
-                   "before the close-pair fit sees it (issue 10)")
 def test_membrane_noisy_two_records_resolve_both_pairs_default_rows(membrane, tmp_path):
     _two_records_resolve_both_pairs(membrane, tmp_path, None)
 
