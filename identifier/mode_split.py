@@ -7,7 +7,7 @@ SSI-cov uses lags of a few seconds, so two modes whose poles differ by
 record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 (:mod:`identifier.close_pair`). Steps, at level ``alpha`` split over the
 ``K`` modes (Bonferroni, ``alpha / K`` each; ``K`` the reported modes and
-those of step 2):
+those step 2 reports):
 
 1. Each record's channels are divided by their noise level ``s_ri``: the RMS
    of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
@@ -21,12 +21,15 @@ those of step 2):
    so that their signal does not leak into the tests; the noise levels are
    estimated again. Such a mode (one SSI dropped: a pair whose poles mix
    their shapes differently at every model order fails stabilisation's MAC
-   test or the jackknife's) is reported: split if it passes step 4, else as
-   one mode fitted with residues of rank one across the records.
+   test or the jackknife's) is reported when its peak's p-value (Bonferroni
+   over the bins) is below ``DISCOVERY`` (noise alone passes ``alpha`` in a
+   fraction ``alpha`` of the identifications: a weaker peak is fitted, not
+   reported): split if it passes step 4, else as one mode fitted with
+   residues of rank one across the records.
 3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
    (score test, :func:`identifier.close_pair.score_statistics`, at level
    ``alpha``: it only picks candidates, the tests of step 4 decide), two
-   reported modes with ``|delta omega| T < RESOLVED``, and every mode of step 2.
+   reported modes with ``|delta omega| T < RESOLVED``, and the modes step 2 reports.
 4. A candidate is split (or its reported pair refitted) only if the records
    move it in different proportions: the residues ``[c_1 ... c_R]`` of its
    pole (with a ``t e^(lambda t)`` term) are not rank one
@@ -44,7 +47,7 @@ those of step 2):
    no splitting) fails (b): each stays as SSI reported it (a mode of step 2
    as one mode).
 5. With the noise levels estimated again (the pairs now in the model) each
-   kept pair and each mode of step 2 is fitted once more; its frequencies,
+   kept pair and each mode step 2 reports is fitted once more; its frequencies,
    damping ratios and standard errors come from that fit (Gauss-Newton
    covariance), its shapes are the fitted (real) ``phi``.
 
@@ -74,6 +77,7 @@ from .traces import Trace
 ALPHA = 0.01
 FLOOR = 1e-6  # least noise standard deviation, x channel RMS
 NEAR = 2.0  # frequency bins (2 pi / T) around a pole that belong to it
+DISCOVERY = 1e-6  # p-value below which a mode found in the residual is reported
 RESOLVED = REACH / np.sqrt(2)  # rad: |delta omega| T of a pair SSI may get wrong; the fits' band is +- RESOLVED / T
 FREE_KINDS = ("impulse", "initial")
 REFINE = ("auto", "off")
@@ -134,9 +138,11 @@ def weighted_groups(records: list[np.ndarray], dt: float, poles: np.ndarray
     return groups, layouts, projections, firsts
 
 
-def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float) -> float | None:
-    """Frequency (rad/s) of the significant peak of the summed periodogram of the
-    weighted residuals (n_g, M_g) away from every pole (module docstring, step 2), or None."""
+def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float
+                  ) -> tuple[float, float] | None:
+    """Frequency (rad/s) and p-value (Bonferroni over the bins) of the
+    significant peak of the summed periodogram of the weighted residuals
+    (n_g, M_g) away from every pole (module docstring, step 2), or None."""
     nfft = max(r.shape[0] for r in resids)
     power = sum(2 * np.sum(np.abs(np.fft.rfft(r, nfft, axis=0)) ** 2, axis=1) / r.shape[0] for r in resids)
     step = 2 * np.pi / (nfft * dt)
@@ -147,7 +153,8 @@ def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha:
         return None
     b = int(np.argmax(np.where(ok, power, -np.inf)))
     columns = sum(r.shape[1] for r in resids)
-    return float(freq[b]) if chi2.sf(power[b], 2 * columns) * ok.sum() < alpha else None
+    p = chi2.sf(power[b], 2 * columns) * ok.sum()
+    return (float(freq[b]), float(p)) if p < alpha else None
 
 
 def candidates(omega: np.ndarray, flagged: np.ndarray, span: float) -> list[tuple[int, ...]]:
@@ -243,22 +250,25 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
     poles = -zeta * omega + 1j * omega * np.sqrt(np.maximum(1 - zeta**2, 0.0))
     span = max(y.shape[1] for y in records) * dt
     step = 2 * np.pi / span
+    found = []  # the modes of step 2: index in poles, reported (p-value below DISCOVERY)
     while True:
         groups, layouts, projections, firsts = weighted_groups(records, dt, poles)
         peak = residual_peak(firsts, poles, dt, alpha) if poles.size < 2 * k else None
         if peak is None:
             break
-        poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
+        found.append((poles.size, peak[1] < DISCOVERY))
+        band = (peak[0] - step, peak[0] + step)
+        poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak[0]]), band))
     stats, df = score_statistics(groups, projections, poles, k)
-    level = alpha / poles.size
+    new = [(j,) for j, report in found if report]
+    level = alpha / (k + len(new))
     fits = []
-    for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span) + \
-            [(j,) for j in range(k, poles.size)]:
-        found = _split(groups, layouts, poles, idx, span, level)
-        if found is None and idx[0] >= k:  # a mode found in the residual that does not split: one mode
-            found = _single(groups, layouts, poles, idx[0])
-        if found is not None:
-            fits.append((idx, *found))
+    for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span) + new:
+        fit = _split(groups, layouts, poles, idx, span, level)
+        if fit is None and idx[0] >= k:  # a mode found in the residual that does not split: one mode
+            fit = _single(groups, layouts, poles, idx[0])
+        if fit is not None:
+            fits.append((idx, *fit))
     if not fits:
         return rows
     # the noise levels again, without the fitted modes' t e^(lambda t) terms in the residual, and the fits repeated
