@@ -143,7 +143,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     zeta = np.array([md.zeta for md in modes])
     split = split_free_decays(traces, records, dt, omega, zeta, shapes, omega_se, zeta_se, refine)
     omega, zeta, omega_se, zeta_se, shapes = split.omega, split.zeta, split.omega_std, split.zeta_std, split.shapes
-    modes = [modes[i] for i in split.source]
+    modes = [modes[i] if i >= 0 else None for i in split.source]  # -1: found by the free-decay fit
     return Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
@@ -154,7 +154,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         mode_shapes_complex=[[[float(v.real), float(v.imag)] for v in col] for col in shapes.T],
         details={"algorithm": "ssi-cov", "quantity": channels[0].quantity, "block_rows": p, "block_columns": q,
                  "references": r, "segments": segments, "max_order": order_cap, "uncertainty": uncertainty,
-                 "orders": [md.order for md in modes], "support": [md.support for md in modes],
+                 "orders": [md.order if md else None for md in modes],
+                 "support": [md.support if md else None for md in modes],
                  "refined": split.refined.tolist(),
                  "stabilisation": _diagram(poles, flags)})
 

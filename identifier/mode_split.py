@@ -6,7 +6,8 @@ SSI-cov uses lags of a few seconds, so two modes whose poles differ by
 ``T`` look like one (or come out as two with mixed shapes). Over the whole
 record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 (:mod:`identifier.close_pair`). Steps, at level ``alpha`` split over the
-``K`` reported modes (Bonferroni, ``alpha / K`` each):
+``K`` modes (Bonferroni, ``alpha / K`` each; ``K`` the reported modes and
+those step 2 reports):
 
 1. Each record's channels are divided by their noise level ``s_ri``: the RMS
    of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
@@ -16,13 +17,19 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
 2. Modes SSI did not report but that residual holds (a peak of the summed
    periodogram ``P(omega) = sum 2 |DFT r|^2 / n ~ chi^2(2M)`` over the ``M``
    weighted columns, above its ``1 - alpha / bins`` quantile, further than ``NEAR``
-   bins ``2 pi / T`` from every pole) are fitted and added, unreported (at
-   most ``K``), so that their signal does not leak into the tests; the noise
-   levels are estimated again.
+   bins ``2 pi / T`` from every pole) are fitted and added (at most ``K``),
+   so that their signal does not leak into the tests; the noise levels are
+   estimated again. Such a mode (one SSI dropped: a pair whose poles mix
+   their shapes differently at every model order fails stabilisation's MAC
+   test or the jackknife's) is reported when its peak's p-value (Bonferroni
+   over the bins) is below ``DISCOVERY`` (noise alone passes ``alpha`` in a
+   fraction ``alpha`` of the identifications: a weaker peak is fitted, not
+   reported): split if it passes step 4, else as one mode fitted with
+   residues of rank one across the records.
 3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
    (score test, :func:`identifier.close_pair.score_statistics`, at level
-   ``alpha``: it only picks candidates, the tests of step 4 decide), and two
-   reported modes with ``|delta omega| T < RESOLVED``.
+   ``alpha``: it only picks candidates, the tests of step 4 decide), two
+   reported modes with ``|delta omega| T < RESOLVED``, and the modes step 2 reports.
 4. A candidate is split (or its reported pair refitted) only if the records
    move it in different proportions: the residues ``[c_1 ... c_R]`` of its
    pole (with a ``t e^(lambda t)`` term) are not rank one
@@ -37,11 +44,12 @@ record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
    ``chi^2(2)``, and (c) neither pole stops at the band's edge. A genuine single
    mode fails (a), a pair moved in one proportion by every record (no record
    tells the shapes apart) fails step 4, a repeated root (residues of rank two,
-   no splitting) fails (b): each stays as SSI reported it.
+   no splitting) fails (b): each stays as SSI reported it (a mode of step 2
+   as one mode).
 5. With the noise levels estimated again (the pairs now in the model) each
-   kept pair is fitted once more; its frequencies, damping ratios and standard
-   errors come from that fit (Gauss-Newton covariance), its shapes are the
-   fitted (real) ``phi``.
+   kept pair and each mode step 2 reports is fitted once more; its frequencies,
+   damping ratios and standard errors come from that fit (Gauss-Newton
+   covariance), its shapes are the fitted (real) ``phi``.
 
 Needs two or more records: from one, a pair's shapes rest on second-order
 terms alone. Assumes free response from the start of each record (a linear
@@ -69,6 +77,7 @@ from .traces import Trace
 ALPHA = 0.01
 FLOOR = 1e-6  # least noise standard deviation, x channel RMS
 NEAR = 2.0  # frequency bins (2 pi / T) around a pole that belong to it
+DISCOVERY = 1e-6  # p-value below which a mode found in the residual is reported
 RESOLVED = REACH / np.sqrt(2)  # rad: |delta omega| T of a pair SSI may get wrong; the fits' band is +- RESOLVED / T
 FREE_KINDS = ("impulse", "initial")
 REFINE = ("auto", "off")
@@ -92,8 +101,9 @@ def free_start(trace: Trace) -> int | None:
 class Refinement:
     """The modes after splitting (k >= input count): ``omega`` rad/s,
     ``zeta``, standard errors, complex ``shapes`` (m, k) of unit norm,
-    ``source`` (k,) the input mode each comes from, ``refined`` (k,) True
-    for the modes of a split pair (values from the free-decay fit)."""
+    ``source`` (k,) the input mode each comes from (-1: found in the fit's
+    residual, step 2), ``refined`` (k,) True for the modes whose values come
+    from the free-decay fit (a split pair, a mode found in the residual)."""
 
     omega: np.ndarray
     zeta: np.ndarray
@@ -128,9 +138,11 @@ def weighted_groups(records: list[np.ndarray], dt: float, poles: np.ndarray
     return groups, layouts, projections, firsts
 
 
-def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float) -> float | None:
-    """Frequency (rad/s) of the significant peak of the summed periodogram of the
-    weighted residuals (n_g, M_g) away from every pole (module docstring, step 2), or None."""
+def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha: float
+                  ) -> tuple[float, float] | None:
+    """Frequency (rad/s) and p-value (Bonferroni over the bins) of the
+    significant peak of the summed periodogram of the weighted residuals
+    (n_g, M_g) away from every pole (module docstring, step 2), or None."""
     nfft = max(r.shape[0] for r in resids)
     power = sum(2 * np.sum(np.abs(np.fft.rfft(r, nfft, axis=0)) ** 2, axis=1) / r.shape[0] for r in resids)
     step = 2 * np.pi / (nfft * dt)
@@ -141,7 +153,8 @@ def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float, alpha:
         return None
     b = int(np.argmax(np.where(ok, power, -np.inf)))
     columns = sum(r.shape[1] for r in resids)
-    return float(freq[b]) if chi2.sf(power[b], 2 * columns) * ok.sum() < alpha else None
+    p = chi2.sf(power[b], 2 * columns) * ok.sum()
+    return (float(freq[b]), float(p)) if p < alpha else None
 
 
 def candidates(omega: np.ndarray, flagged: np.ndarray, span: float) -> list[tuple[int, ...]]:
@@ -219,6 +232,16 @@ def split_close_modes(records: list[np.ndarray], dt: float, omega: np.ndarray, z
                       np.array(cols[6], dtype=bool))
 
 
+def _single(groups: list[Group], layouts: list[Layout], poles: np.ndarray, j: int) -> tuple[complex, ModeFit]:
+    """Pole ``j`` fitted as one mode with residues of rank one across the
+    records (participations started from the leading singular vector of its
+    first-order residues ``C``)."""
+    _, sv, vh = la.svd(first_order(groups, layouts, poles, j).c, full_matrices=False)
+    others = np.delete(poles, j)
+    locs = [local_space(g, others, poles[j]) for g in groups]
+    return poles[j], fit_modes(locs, layouts, others.size, poles[[j]], (sv[0] * vh[0])[None, :])
+
+
 def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, rows: list,
             alpha: float) -> list:
     """Steps 1-5 of the module docstring on the rows (omega, zeta, their
@@ -227,27 +250,37 @@ def _refine(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nd
     poles = -zeta * omega + 1j * omega * np.sqrt(np.maximum(1 - zeta**2, 0.0))
     span = max(y.shape[1] for y in records) * dt
     step = 2 * np.pi / span
+    found = []  # the modes of step 2: index in poles, reported (p-value below DISCOVERY)
     while True:
         groups, layouts, projections, firsts = weighted_groups(records, dt, poles)
         peak = residual_peak(firsts, poles, dt, alpha) if poles.size < 2 * k else None
         if peak is None:
             break
-        poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak]), (peak - step, peak + step)))
+        found.append((poles.size, peak[1] < DISCOVERY))
+        band = (peak[0] - step, peak[0] + step)
+        poles = np.append(poles, fit_poles(groups, poles, np.array([1j * peak[0]]), band))
     stats, df = score_statistics(groups, projections, poles, k)
-    level = alpha / k
-    pairs = [(idx, *found) for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span)
-             if (found := _split(groups, layouts, poles, idx, span, level)) is not None]
-    if not pairs:
+    new = [(j,) for j, report in found if report]
+    level = alpha / (k + len(new))
+    fits = []
+    for idx in candidates(omega, np.flatnonzero(chi2.sf(stats, df) < alpha), span) + new:
+        fit = _split(groups, layouts, poles, idx, span, level)
+        if fit is None and idx[0] >= k:  # a mode found in the residual that does not split: one mode
+            fit = _single(groups, layouts, poles, idx[0])
+        if fit is not None:
+            fits.append((idx, *fit))
+    if not fits:
         return rows
-    # the noise levels again, without the pairs' t e^(lambda t) terms in the residual, and the pairs refitted
-    taken = [j for idx, _, _ in pairs for j in idx]
-    poles = np.concatenate([np.delete(poles, taken)] + [two.poles for _, _, two in pairs])
+    # the noise levels again, without the fitted modes' t e^(lambda t) terms in the residual, and the fits repeated
+    taken = [j for idx, _, _ in fits for j in idx]
+    poles = np.concatenate([np.delete(poles, taken)] + [fit.poles for _, _, fit in fits])
     groups, layouts, _, _ = weighted_groups(records, dt, poles)
-    for idx, center, two in pairs:
-        others = poles[~np.isin(poles, two.poles)]
+    rows = [r for j, r in enumerate(rows) if j not in taken]
+    for idx, center, fit in fits:
+        others = poles[~np.isin(poles, fit.poles)]
         locs = [local_space(g, others, center) for g in groups]
-        two = fit_modes(locs, layouts, others.size, two.poles, two.participations)
-        w, z, se_w, se_z = omega_zeta(two.poles, two.cov)
-        rows += [(w[a], z[a], se_w[a], se_z[a], two.shapes[:, a] / la.norm(two.shapes[:, a]), idx[0], True)
-                 for a in range(2)]
-    return [r for j, r in enumerate(rows) if j not in taken]
+        fit = fit_modes(locs, layouts, others.size, fit.poles, fit.participations)
+        w, z, se_w, se_z = omega_zeta(fit.poles, fit.cov)
+        rows += [(w[a], z[a], se_w[a], se_z[a], fit.shapes[:, a] / la.norm(fit.shapes[:, a]),
+                  idx[0] if idx[0] < k else -1, True) for a in range(fit.poles.size)]
+    return rows

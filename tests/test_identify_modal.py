@@ -183,8 +183,9 @@ def _two_records_resolve_both_pairs(membrane, tmp_path, block_rows):
     """Both records (free responses, 100 s at 0.01 s as in the campaign), 2 %
     noise, one realisation: the pair 0.08 % apart (omega 2.4175, 2.4196) and
     the pair 0.009 % apart (1.09144, 1.09154; SSI-cov alone cannot split it,
-    the free-decay fit of identifier/mode_split.py does) come out as two modes
-    each within 0.01 % with MAC >= 0.99 (20 seeds: benchmarks/modal_accuracy.py)."""
+    the free-decay fit of identifier/mode_split.py does; with the default block
+    rows SSI-cov drops it and the fit finds it in its residual) come out as two
+    modes each within 0.01 % with MAC >= 0.99 (20 seeds: benchmarks/modal_accuracy.py)."""
     modes = membrane.modes()
     result = identify(membrane_traces(tmp_path, membrane, free_responses(0.01), 0.02, dt=0.01), membrane,
                       block_rows=block_rows)
@@ -200,9 +201,6 @@ def test_membrane_noisy_two_records_resolve_both_pairs_with_200_block_rows(membr
     _two_records_resolve_both_pairs(membrane, tmp_path, 200)
 
 
-@pytest.mark.xfail(strict=True, reason="known limit: the default 250 block rows for 16 channels make the "
-                   "0.009 % pair's two poles swap between model orders, so stabilisation drops the mode "
-                   "before the close-pair fit sees it (issue 10)")
 def test_membrane_noisy_two_records_resolve_both_pairs_default_rows(membrane, tmp_path):
     _two_records_resolve_both_pairs(membrane, tmp_path, None)
 

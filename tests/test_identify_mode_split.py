@@ -78,12 +78,54 @@ def test_pair_001_percent_apart_resolved_from_two_records():
 
 
 def test_pair_split_with_a_mode_missing_from_the_list():
-    """A strong mode the SSI list lacks is fitted (not reported) so that its
-    signal does not spoil the pair."""
+    """A strong mode the SSI list lacks is fitted, so that its signal does not
+    spoil the pair, and reported (source -1) at its frequency (within 0.001 %
+    and 4 standard errors) and shape (MAC > 0.999)."""
     records = free_decays(PAIR, np.zeros(3), SHAPES, np.array([[1.0, 1.0, 2.0], [1.0, 0.2, 2.0]]), DT, N, 0.02, 3)
     out = split(records, np.array([1.00005]))
-    assert out.omega.size == 2 and out.refined.all()
-    assert out.omega == pytest.approx(PAIR[:2], rel=2e-5)
+    assert out.omega.size == 3 and out.refined.all() and list(out.source) == [0, 0, -1]
+    assert out.omega[:2] == pytest.approx(PAIR[:2], rel=2e-5)
+    assert abs(out.omega[2] - PAIR[2]) < min(1e-5 * PAIR[2], 4 * out.omega_std[2])
+    assert mac(real_shapes(out.shapes[:, 2:])[:, 0], SHAPES[:, 2]) > 0.999
+
+
+def test_pair_missing_from_the_list_found_in_the_residual_and_split():
+    """SSI lost the pair (0.01 % apart) altogether: the residual's peak is
+    fitted and split, two modes within 0.002 % and MAC > 0.99; the listed mode stays as given."""
+    for seed in (4, 5):
+        records = free_decays(PAIR, np.zeros(3), SHAPES, np.array([[1.0, 1.0, 0.5], [1.0, 0.2, 1.0]]), DT, N,
+                              0.02, seed)
+        out = split_close_modes(records, DT, PAIR[2:], np.zeros(1), SHAPES[:, 2:].astype(complex),
+                                np.full(1, np.nan), np.full(1, np.nan))
+        assert list(out.source) == [-1, -1, 0] and list(out.refined) == [True, True, False]
+        assert out.omega[:2] == pytest.approx(PAIR[:2], rel=2e-5) and out.omega[2] == PAIR[2]
+        shapes = real_shapes(out.shapes[:, :2])
+        assert min(mac(shapes[:, a], SHAPES[:, a]) for a in range(2)) > 0.99
+
+
+def test_repeated_root_missing_from_the_list_reported_once():
+    """A repeated root (two shapes, one pole; residues of rank two) that SSI
+    lost is found in the residual and reported once, at its frequency within
+    4 standard errors: no second mode invented."""
+    omega = np.array([1.0, 1.0, 1.7])
+    for seed in (1, 2):
+        records = free_decays(omega, np.zeros(3), SHAPES, np.array([[1.0, 1.0, 0.5], [1.0, 0.2, 1.0]]), DT, N,
+                              0.02, seed)
+        out = split_close_modes(records, DT, omega[2:], np.zeros(1), SHAPES[:, 2:].astype(complex),
+                                np.full(1, np.nan), np.full(1, np.nan))
+        assert list(out.source) == [-1, 0] and abs(out.omega[0] - 1.0) < 4 * out.omega_std[0]
+
+
+def test_noise_peak_in_the_residual_not_reported():
+    """Two seeds whose white noise leaves a residual peak (near 297 and 145 rad/s)
+    significant at level 0.01 but far above the DISCOVERY p-value: fitted,
+    not reported; the listed modes stay as given."""
+    omega = PAIR[[0, 2]]
+    for seed in (23, 46):
+        records = free_decays(omega, np.full(2, 0.001), SHAPES[:, [0, 2]], np.array([[1.0, 0.5], [0.3, 1.0]]),
+                              DT, N, 0.02, seed)
+        out = split(records, omega)
+        assert list(out.omega) == list(omega) and not out.refined.any()
 
 
 @pytest.mark.parametrize("participations", [np.array([[1.0, 0.5], [0.3, 1.0]]),  # one mode at 1 rad/s
