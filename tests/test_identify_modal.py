@@ -234,6 +234,9 @@ def test_cli_one_line_and_exit_2(beam, tmp_path, capsys):
     assert main(["identify", str(folder), "--method", "modal", "--block-rows", "20", "--json"]) == 0
     out = capsys.readouterr().out
     assert '"damping_std"' in out and (folder / "results" / "modal-stabilisation-00.png").is_file()
+    assert main(["identify", str(folder), "--method", "modal", "--block-rows", "20", "--uncertainty", "off",
+                 "--json"]) == 0
+    assert '"uncertainty": "off"' in capsys.readouterr().out
 
 
 def test_uncertainty_off_same_modes_without_errors(damped, tmp_path):
