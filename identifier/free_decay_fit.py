@@ -144,7 +144,7 @@ def omega_zeta(poles: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarr
     blocks = np.array([cov[2 * j:2 * j + 2, 2 * j:2 * j + 2] for j in range(s.size)]).reshape(-1, 2, 2)
     var_w = np.einsum("ja,jab,jb->j", grad_w, blocks, grad_w)
     var_z = np.einsum("ja,jab,jb->j", grad_z, blocks, grad_z)
-    return omega, -s / omega, np.sqrt(var_w), np.sqrt(var_z)
+    return omega, -s / omega, np.sqrt(np.maximum(var_w, 0.0)), np.sqrt(np.maximum(var_z, 0.0))  # < 0: rounding
 
 
 def fit_poles(groups: list[Group], fixed: np.ndarray, start: np.ndarray, band: tuple[float, float],
