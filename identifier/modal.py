@@ -84,6 +84,9 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
             raise IdentificationError(f"{trace.path.name}: dt {trace.dt} s differs from {first.dt} s",
                                       field="dt")
         records.append(np.vstack([c.data for c in here]))
+    if not any(np.ptp(y, axis=1).max() > 0 for y in records):
+        raise IdentificationError(f"{first.path.name}: every {chosen} channel is constant in every trace: "
+                                  f"no response to identify", field="channels")
     return records, channels, first.dt
 
 

@@ -220,6 +220,10 @@ def test_bad_input_is_named(beam, tmp_path):
     with pytest.raises(IdentificationError, match="displacement_3_w") as err:
         identify([bad], beam)
     assert err.value.field == "displacement_3_w"
+    flat = dataclasses.replace(trace, channels={k: dataclasses.replace(c, data=np.full_like(c.data, 0.25))
+                                                for k, c in trace.channels.items()})
+    with pytest.raises(IdentificationError, match="every displacement channel is constant"):
+        identify([flat], beam)
 
 
 def test_cli_one_line_and_exit_2(beam, tmp_path, capsys):
