@@ -5,10 +5,11 @@ The covariance sums are kept per sample group (``G`` groups,
 :mod:`identifier.ssi_covariance`); replicate ``g`` repeats the identification
 from every group but ``g``. Its subspace is one step of subspace iteration
 from the full data's leading left singular vectors ``U``: ``Q_g = H_g H_g^T
-U R^-1`` with ``R`` upper triangular (see :func:`_bases`), so that its first
+U R^-1`` with ``R`` upper triangular (see :class:`Replicates`), so that its first
 ``n`` columns span the replicate's subspace of order ``n``; two Hankel
 products by FFT (:mod:`identifier.ssi_hankel`, the FFT of ``U`` shared) and a
-triangular solve per replicate, two replicates at a time. (The cheaper first-order subspace
+triangular solve per replicate, two replicates at a time, in the background
+(:class:`Replicates`). (The cheaper first-order subspace
 ``U + (I - U U^T) E_g V S^-1`` fails for free decays: a mode that one group
 holds almost alone loses nearly all of its singular value when that group
 is left out, far outside first order, and the errors came out 2-4 times too
