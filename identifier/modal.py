@@ -127,8 +127,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     full = cov.mean()
     W = row_projection(full, mo)
     with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
-        U, s, V = leading_svd(BlockHankel(project(full, W), p, q), order_cap, power=1)
-        replicates = Replicates(cov, W, (p, q), U) if uncertainty == "jackknife" else None
+        H = BlockHankel(project(full, W), p, q)
+        U, s, V = leading_svd(H, order_cap, power=1)
+        replicates = Replicates(cov, W, H, U) if uncertainty == "jackknife" else None
         rows = subspace(U, mo)
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]

@@ -116,10 +116,12 @@ class Replicates:
     QR of ``Y``, which spans singular values over many decades, costs twice
     as much for the same poles)."""
 
-    def __init__(self, cov: Covariances, W: np.ndarray | None, blocks: tuple[int, int], U: np.ndarray):
+    def __init__(self, cov: Covariances, W: np.ndarray | None, full: BlockHankel, U: np.ndarray):
+        """``full``: the full data's Hankel operator (its sizes; its FFT of ``U`` serves every replicate)."""
         self.U, self.dt, self.groups = U, cov.dt, cov.sums.shape[0]
-        rows = U.shape[0] // blocks[0]
-        Uf = BlockHankel(project(cov.mean(), W), *blocks).transform(U, blocks[0])
+        blocks = (full.rows, full.columns)
+        rows = U.shape[0] // full.rows
+        Uf = full.transform(U, full.rows)
 
         def basis(g: int) -> tuple[np.ndarray, ...]:
             H = BlockHankel(project(cov.mean(leave_out=g), W), *blocks)
