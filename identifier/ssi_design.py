@@ -59,11 +59,20 @@ def block_sizes(samples: int, m: int, references: int, row_channels: int, max_or
     """Block rows ``p`` (``rows`` if given) and columns ``q`` (see the module
     docstring) for records of at least ``samples`` samples of ``m`` channels,
     ``references`` reference and ``row_channels`` row channels, sampled at
-    ``dt`` s; ``decay``: every record is a free decay; ``f_low`` Hz."""
+    ``dt`` s; ``decay``: every record is a free decay; ``f_low`` Hz. Chosen
+    sizes fit the record (``p + q`` at most the longest span): on a short
+    record the columns give way down to the split that allows the highest
+    model order, ``(p - 1) row_channels = q references``, and the rows take
+    the rest; given ``rows`` are kept as they are."""
     longest = min(samples // 20, LAG_BUDGET // (m * references))
+    chosen = rows
     rows = rows or max(2, min(ROW_BUDGET // row_channels, 4 * longest // 5))
     columns = rows // 4
     if not decay:
         quarter_period = int(np.ceil(1.0 / (4.0 * f_low * dt))) + 1
         columns = min(longest, max(rows + columns, quarter_period)) - rows
-    return int(rows), int(max(columns, -(-3 * max_order // (2 * references)), 1))
+    columns = max(columns, -(-3 * max_order // (2 * references)), 1)
+    if chosen is None and rows + columns > longest:  # a short record: as high an order as rows and columns allow
+        columns = max(1, min(columns, (longest - 1) * row_channels // (row_channels + references)))
+        rows = max(2, longest - columns)
+    return int(rows), int(columns)
