@@ -17,6 +17,12 @@ Steps (each its own module):
    ``[R_1 .. R_q] V S^-1``);
 3. stabilisation across orders and clustering of the stable poles into modes,
    estimated as medians over all their stable poles (:mod:`identifier.stabilisation`);
+   a mode whose representative pole's observability vector does not follow
+   the geometric sequence ``mu^i`` of its eigenvalue over the block rows
+   (temporal coherence below ``COHERENCE``, :func:`identifier.ssi_poles.coherence`)
+   is a pole of the covariance estimates' own noise and dropped: such poles
+   become stable at orders far past the structure's (a response that dies
+   out early in a long record, few modes on many sensors);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
@@ -53,12 +59,13 @@ from .results import Identification
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency
 from .ssi_hankel import BlockHankel, leading_svd
-from .ssi_poles import Poles, Subspace, mpc, poles_at, real_shapes, subspace
+from .ssi_poles import Poles, Subspace, coherence, mpc, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, select_modes
 from .traces import Channel, Trace
 
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
 UNCERTAINTY = ("jackknife", "off")
+COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.ssi_poles.coherence`)
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndarray], list[Channel], float]:
@@ -135,6 +142,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction))
         by_order = {pl.order: pl for pl in poles}
+        fits = [coherence(U, mo, by_order[md.order], md.index) for md in modes]
+        modes, fits = [md for md, c in zip(modes, fits) if c >= COHERENCE], [c for c in fits if c >= COHERENCE]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
         omega_se, zeta_se, missed = jackknife(replicates, by_order,
@@ -143,11 +152,13 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     kept = (missed <= 1) | (not drop_unrepeated)
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
+    fits = [c for c, k in zip(fits, kept) if k]
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
     split = split_free_decays(traces, records, dt, omega, zeta, shapes, omega_se, zeta_se, refine)
     omega, zeta, omega_se, zeta_se, shapes = split.omega, split.zeta, split.omega_std, split.zeta_std, split.shapes
     modes = [modes[i] if i >= 0 else None for i in split.source]  # -1: found by the free-decay fit
+    fits = [fits[i] if i >= 0 else None for i in split.source]
     return Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
@@ -160,6 +171,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "references": r, "segments": segments, "max_order": order_cap, "uncertainty": uncertainty,
                  "orders": [md.order if md else None for md in modes],
                  "support": [md.support if md else None for md in modes],
+                 "coherence": fits,
                  "refined": split.refined.tolist(),
                  "stabilisation": _diagram(poles, flags)})
 
