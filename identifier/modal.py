@@ -7,7 +7,9 @@ Steps (each its own module):
    only enters ``R_0``, which is not used. Lags 1 .. p + q - 1 with ``p`` block
    rows and ``q`` block columns chosen from the data
    (:mod:`identifier.ssi_design`: the record length, free decay or not, the
-   lowest frequency the response carries, the channel count);
+   lowest frequency the response carries, the channel count; in a random
+   response no lag past those whose covariances stand out of their
+   estimation noise);
 2. block Hankel matrix of the covariances, on at most 20 principal row
    channels; its leading singular vectors by subspace iteration with products
    by FFT (:mod:`identifier.ssi_hankel`), and the poles ``s = ln(mu(A)) / dt``
@@ -57,7 +59,7 @@ from .modal_uncertainty import Replicates, jackknife
 from .mode_split import split_free_decays
 from .results import Identification
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
-from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency
+from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi_hankel import BlockHankel, leading_svd
 from .ssi_poles import Poles, Subspace, coherence, mpc, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, select_modes
@@ -123,14 +125,19 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     refs = reference_channels(m, r)
     decay = all(is_free_decay(y / np.maximum(np.std(y, axis=1, keepdims=True), np.finfo(float).tiny))
                 for y in records)
-    p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay,
-                       0.0 if decay else lowest_frequency(records, dt, refs), block_rows)
-    order_cap = min(max_order, q * r, p * mo - mo)
+    f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
+    p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, block_rows)
     if shortest < 20 * (p + q):
         raise IdentificationError(f"{traces[0].path.name}: {shortest} samples are too few for {p} block rows "
                                   f"(need at least 20 x (rows + columns) = {20 * (p + q)}); give fewer "
                                   f"block rows or a longer record", field="block_rows")
     cov = covariances(records, dt, p + q - 1, r, segments)
+    if not decay and block_rows is None:  # random response: only the lags that carry signal
+        span = signal_span(cov, max(8, int(np.ceil(1.0 / (2.0 * f_low * dt)))))
+        if span < p + q - 1:
+            p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, span=span)
+            cov = cov.truncated(p + q - 1)
+    order_cap = min(max_order, q * r, p * mo - mo)
     full = cov.mean()
     W = row_projection(full, mo)
     with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
@@ -140,10 +147,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         rows = subspace(U, mo)
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
-        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction))
         by_order = {pl.order: pl for pl in poles}
+        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction),
+                                    lambda md: coherence(U, mo, by_order[md.order], md.index) >= COHERENCE)
         fits = [coherence(U, mo, by_order[md.order], md.index) for md in modes]
-        modes, fits = [md for md, c in zip(modes, fits) if c >= COHERENCE], [c for c in fits if c >= COHERENCE]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
         omega_se, zeta_se, missed = jackknife(replicates, by_order,

@@ -58,6 +58,10 @@ class Covariances:
     references: np.ndarray
     dt: float
 
+    def truncated(self, lags: int) -> Covariances:
+        """The sums of the first ``lags`` lags only (over the same samples ``k``)."""
+        return Covariances(self.sums[:, :lags], self.counts[:, :lags], self.scale, self.references, self.dt)
+
     def mean(self, leave_out: int | None = None) -> np.ndarray:
         """``R_l`` (L, m, r) from every group, or from all but group ``leave_out``."""
         keep = np.ones(self.sums.shape[0], dtype=bool)
