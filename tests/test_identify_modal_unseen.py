@@ -79,14 +79,14 @@ def test_shadows_of_a_strong_mode_in_random_data_are_not_modes(seed, monkeypatch
     sensors, 24,469 samples) and 23 (1 mode, 12 sensors, 7,137 samples):
     every mode is found within 0.3 % (about three standard errors of the
     record, ``sqrt(zeta / (omega T))``) and nothing else; without the shadow
-    rule (window 1 %, the old merge) poles of the strong modes' own shape
+    rule (only modes within 1 % merged) poles of the strong modes' own shape
     beside them come out as modes too."""
     y, omega, zeta, dt, _ = modal_fuzz.stationary(np.random.default_rng(seed), seed)
     result = modal.identify([trace(y, dt)])
     assert len(result.omega) == omega.size
     assert np.abs(np.array(result.omega) / omega - 1).max() < 3e-3
     criteria = modal.Criteria
-    monkeypatch.setattr(modal, "Criteria", lambda **kw: criteria(shadow=0.01, **kw))
+    monkeypatch.setattr(modal, "Criteria", lambda **kw: criteria(shadow_support=0.0, **kw))
     assert len(modal.identify([trace(y, dt)]).omega) > omega.size
 
 
