@@ -7,8 +7,6 @@ a record too short for the default block sizes. `python
 benchmarks/modal_fuzz.py` runs many such random structures."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import modal_fuzz
 import numpy as np
 import pytest
@@ -16,18 +14,9 @@ import pytest
 from modal_synth import free_decays
 from structbench.identifier import modal
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.traces import Channel, Trace
 
 OMEGA, ZETA = np.array([5.27, 25.44]), np.array([0.032, 0.016])  # rad/s; decay times 5.9 s and 2.5 s
 DT, N = 0.043, 5541  # 238 s: the response is below the 2 % noise after about 40 s
-
-
-def trace(y: np.ndarray, dt: float) -> Trace:
-    """An in-memory trace of velocity records ``y`` (m, n) at points 1..m."""
-    channels = {f"velocity_{i + 1}_w": Channel(f"velocity_{i + 1}_w", row, "velocity", "m/s", i + 1, "w",
-                                               np.full(3, np.nan), 0.02) for i, row in enumerate(y)}
-    return Trace(Path("unseen.h5"), np.arange(y.shape[1]) * dt, dt, dt, channels, {},
-                 {"test": "unseen", "repetition": 0, "structure": "synthetic"}, {"kind": "initial"})
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +31,7 @@ def test_noise_poles_of_a_long_quiet_decay_are_not_modes(quiet, seed):
     past order ~50 the covariance noise gives stable poles (5-19 of them
     with every other test passed) whose observability does not follow
     ``mu^i``. Exactly the two modes are reported, within 0.01 %, coherent."""
-    result = modal.identify([trace(quiet[seed], DT)])
+    result = modal.identify([modal_fuzz.trace(quiet[seed], DT)])
     assert len(result.omega) == 2
     assert np.abs(np.array(result.omega) / OMEGA - 1).max() < 1e-4
     assert min(result.details["coherence"]) > 0.99
@@ -52,7 +41,7 @@ def test_without_the_coherence_test_noise_poles_are_reported(quiet, monkeypatch)
     """The same record with the coherence threshold at 0: the noise poles
     pass stabilisation and the jackknife and come out as modes."""
     monkeypatch.setattr(modal, "COHERENCE", 0.0)
-    result = modal.identify([trace(quiet[1], DT)])
+    result = modal.identify([modal_fuzz.trace(quiet[1], DT)])
     assert len(result.omega) > 5
     assert min(result.details["coherence"]) < 0.3
 
@@ -64,13 +53,13 @@ def test_short_record_gets_block_sizes_that_fit():
     given by the caller that do not fit still get one clear error."""
     shapes = np.array([[0.6], [0.8]])
     y = free_decays(np.array([55.5]), np.array([0.0044]), shapes, np.array([[1.0]]), 0.0181, 1251, 0.02, 34)[0]
-    result = modal.identify([trace(y, 0.0181)])
+    result = modal.identify([modal_fuzz.trace(y, 0.0181)])
     p, q = result.details["block_rows"], result.details["block_columns"]
     assert p + q <= 1251 // 20 and result.details["max_order"] >= 40
     assert result.omega == pytest.approx([55.5], rel=1e-4)
     assert result.damping == pytest.approx([0.0044], rel=0.1)
     with pytest.raises(IdentificationError, match="1251 samples are too few for 60 block rows"):
-        modal.identify([trace(y, 0.0181)], block_rows=60)
+        modal.identify([modal_fuzz.trace(y, 0.0181)], block_rows=60)
 
 
 @pytest.mark.parametrize("seed", [11, 23])
@@ -82,12 +71,12 @@ def test_shadows_of_a_strong_mode_in_random_data_are_not_modes(seed, monkeypatch
     rule (only modes within 1 % merged) poles of the strong modes' own shape
     beside them come out as modes too."""
     y, omega, zeta, dt, _ = modal_fuzz.stationary(np.random.default_rng(seed), seed)
-    result = modal.identify([trace(y, dt)])
+    result = modal.identify([modal_fuzz.trace(y, dt)])
     assert len(result.omega) == omega.size
     assert np.abs(np.array(result.omega) / omega - 1).max() < 3e-3
     criteria = modal.Criteria
     monkeypatch.setattr(modal, "Criteria", lambda **kw: criteria(shadow_support=0.0, **kw))
-    assert len(modal.identify([trace(y, dt)]).omega) > omega.size
+    assert len(modal.identify([modal_fuzz.trace(y, dt)]).omega) > omega.size
 
 
 def test_random_response_uses_only_the_lags_that_carry_signal(monkeypatch):
@@ -98,8 +87,8 @@ def test_random_response_uses_only_the_lags_that_carry_signal(monkeypatch):
     reported); the lags whose covariances stand out of their noise (64)
     find it within 0.5 %, and nothing else."""
     y, omega, _, dt, _ = modal_fuzz.stationary(np.random.default_rng(57), 57)
-    result = modal.identify([trace(y, dt)])
+    result = modal.identify([modal_fuzz.trace(y, dt)])
     assert result.details["block_rows"] + result.details["block_columns"] <= 65
     assert result.omega == pytest.approx(omega, rel=5e-3)
     monkeypatch.setattr(modal, "signal_span", lambda cov, window: cov.sums.shape[1])
-    assert np.min(np.abs(np.array(modal.identify([trace(y, dt)]).omega) / omega[0] - 1), initial=1.0) > 1e-2
+    assert np.min(np.abs(np.array(modal.identify([modal_fuzz.trace(y, dt)]).omega) / omega[0] - 1), initial=1.0) > 1e-2
