@@ -92,3 +92,17 @@ def test_random_response_uses_only_the_lags_that_carry_signal(monkeypatch):
     assert result.omega == pytest.approx(omega, rel=5e-3)
     monkeypatch.setattr(modal, "signal_span", lambda cov, window: cov.sums.shape[1])
     assert np.min(np.abs(np.array(modal.identify([modal_fuzz.trace(y, dt)]).omega) / omega[0] - 1), initial=1.0) > 1e-2
+
+
+def test_heavily_damped_mode_of_a_random_response_is_kept(monkeypatch):
+    """Structure 177 of the fuzz benchmark (7 modes, 9 sensors, random
+    response): its mode at 65.3 rad/s (zeta 0.048) decays within a few of
+    the block rows its slow modes need, and its observability's coherence
+    falls to 0.50 in the noise of the rest; stable at nearly every order, it
+    is kept (within 0.2 %), and lost when that exemption is removed."""
+    y, omega, _, dt, _ = modal_fuzz.stationary(np.random.default_rng(177), 177)
+    found = np.array(modal.identify([modal_fuzz.trace(y, dt)]).omega)
+    assert np.min(np.abs(found / omega[-1] - 1)) < 2e-3
+    monkeypatch.setattr(modal, "STEADY", 1.01)
+    found = np.array(modal.identify([modal_fuzz.trace(y, dt)]).omega)
+    assert np.min(np.abs(found / omega[-1] - 1)) > 1e-2
