@@ -153,10 +153,14 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
         by_order = {pl.order: pl for pl in poles}
-        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), lambda md: (
-            coherence(U, mo, by_order[md.order], md.index) >= COHERENCE
-            or len({n for n, _ in md.members}) >= STEADY * len(poles)))
-        fits = [coherence(U, mo, by_order[md.order], md.index) for md in modes]
+        fit = {}  # (order, index) of a mode's representative pole: its coherence
+
+        def coherent(md: Mode) -> bool:
+            fit[md.order, md.index] = coherence(U, mo, by_order[md.order], md.index)
+            return fit[md.order, md.index] >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
+
+        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
+        fits = [fit[md.order, md.index] for md in modes]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
         omega_se, zeta_se, missed = jackknife(replicates, by_order,
