@@ -28,7 +28,7 @@ Steps (each its own module):
    ``STEADY`` (80 %) of the orders or more, while a heavily damped mode of a
    random response, stable at nearly every order, can lose its coherence in
    the noise of lags many of its decay times long (two modes of zeta 0.048
-   in 100 random structures: 0.35 and 0.50);
+   of the random structures of ``benchmarks/modal_fuzz.py``: 0.35 and 0.50);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
