@@ -67,9 +67,10 @@ def decay(rng: np.random.Generator, seed: int):
     T = min(max(3.0 / (zeta.min() * omega.min()), 400 * np.pi / omega.min()), 4000.0)
     n = int(min(T / dt, 200_000))
     part = np.abs(rng.standard_normal(omega.size)) * omega.min() / omega * np.exp(2j * np.pi * rng.random(omega.size))
-    y = free_decays(omega, zeta, shapes, part[None, :], dt, n, NOISE, seed)[0]
     clean = free_decays(omega, zeta, shapes, part[None, :], dt, n, 0.0, seed)[0]
-    noise_power = n * np.sum(NOISE**2 * np.mean(clean**2, axis=1))
+    rms = np.sqrt(np.mean(clean**2, axis=1))
+    y = clean + NOISE * rms[:, None] * np.random.default_rng(seed).standard_normal(clean.shape)  # as free_decays adds it
+    noise_power = n * np.sum((NOISE * rms) ** 2)
     length = np.minimum(1.0 / (2.0 * zeta * omega * dt), n)  # samples the mode lasts
     return y, omega, zeta, dt, np.abs(part) ** 2 * length**2 / 4.0 / noise_power
 
