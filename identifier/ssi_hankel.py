@@ -72,9 +72,11 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     """``U`` (p m, count), ``s`` (count,), ``V`` (q r, count): the leading
     singular triplets of ``H`` by subspace iteration (Halko, Martinsson and
     Tropp 2011): ``power`` steps from ``H`` times a fixed-seed Gaussian probe
-    of ``count + 10`` columns, then the SVD of the small ``Q^T H``. The
-    leading vectors converge as ``(s_(count+10) / s_i)^(2 power + 1)``: exact
-    for a matrix of rank below ``count + 10``, accurate for the structural
+    of ``count + 10`` columns, then the SVD ``U_b S W^T`` of the small ``Q^T H``
+    from the triangular factor of ``H^T Q = Q_Z R`` alone (``Q^T H = R^T
+    Q_Z^T``, so ``U = Q U_b`` and ``V = H^T Q U_b S^-1``). The leading
+    vectors converge as ``(s_(count+10) / s_i)^(2 power + 1)``: exact for a
+    matrix of rank below ``count + 10``, accurate for the structural
     (signal) part of a noisy one. Between steps the basis only needs to
     span the iterate: a pivoted LU (a quarter of the cost of a Householder
     QR) keeps it well scaled; the last basis is orthonormal (QR)."""
@@ -83,8 +85,11 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     for _ in range(power):
         Y = H @ H.rmatmul(_span(Y))
     Q = la.qr(Y, mode="economic", overwrite_a=True)[0]
-    Ub, s, Vt = la.svd(H.rmatmul(Q).T, full_matrices=False)
-    return (Q @ Ub)[:, :count], s[:count], Vt[:count].T
+    Z = H.rmatmul(Q)  # (q r, width) = (Q^T H)^T
+    R = la.qr(Z, mode="r", check_finite=False)[0][:width]  # Z = Q_Z R: Q^T H = R^T Q_Z^T
+    Ub, s = la.svd(R.T, check_finite=False)[:2]
+    Ub, s = Ub[:, :count], s[:count]
+    return Q @ Ub, s, (Z @ Ub) / np.where(s > 0, s, 1.0)
 
 
 def _span(Y: np.ndarray) -> np.ndarray:

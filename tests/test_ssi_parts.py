@@ -61,7 +61,8 @@ def test_hankel_products_by_fft_are_the_matrix_products(rows, columns):
     assert one.rmatmul(Y[2], one.transform(Y[2], rows)) == pytest.approx(explicit[1].T @ Y[2], abs=1e-12)
 
 
-def test_leading_singular_triplets_of_a_low_rank_hankel_are_lapacks():
+@pytest.mark.parametrize("rows, columns", [(50, 29), (20, 59)])  # tall and wide
+def test_leading_singular_triplets_of_a_low_rank_hankel_are_lapacks(rows, columns):
     """Covariances of three damped oscillations (rank 6): the randomised
     subspace iteration gives the six leading triplets of the full SVD."""
     rng = np.random.default_rng(2)
@@ -69,7 +70,7 @@ def test_leading_singular_triplets_of_a_low_rank_hankel_are_lapacks():
     poles = np.exp((-0.01 + 1j * np.array([0.3, 0.7, 1.3]))[:, None] * lags)  # (3, L)
     C, G = rng.standard_normal((4, 3)) + 0j, rng.standard_normal((3, 2)) + 0j
     R = np.einsum("mk,kl,kr->lmr", C, poles, G).real
-    H = BlockHankel(R, 50, 29)
+    H = BlockHankel(R, rows, columns)
     U, s, V = leading_svd(H, 6, power=1)
     U0, s0, V0t = np.linalg.svd(H.dense())
     assert s == pytest.approx(s0[:6], rel=1e-10)
