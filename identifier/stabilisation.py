@@ -103,16 +103,22 @@ def stable_flags(poles: list[Poles], criteria: Criteria) -> list[np.ndarray]:
 def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -> list[list[tuple[int, int]]]:
     """Stable poles grouped by frequency (within ``freq_tol`` of the cluster's
     mean) and shape (MAC to the cluster's first pole above ``mac_min``); each
-    cluster is a list of (order position, pole index)."""
+    cluster is a list of (order position, pole index). The poles come in
+    ascending frequency, so a cluster whose mean is below ``w (1 - freq_tol)``
+    can take no further pole: only the clusters from ``first`` on are tried."""
     stable = sorted(((poles[i].omega[j], i, j) for i, f in enumerate(flags) for j in np.flatnonzero(f)))
     clusters: list[list[tuple[int, int]]] = []
     sums: list[float] = []
     shapes: list[np.ndarray] = []
+    first = 0
     for w, i, j in stable:
         phi = poles[i].shapes[:, j]
         best, best_mac = -1, criteria.mac_min
-        for c, (members, total) in enumerate(zip(clusters, sums)):
-            if abs(w - total / len(members)) < criteria.freq_tol * w:
+        for c in range(first, len(clusters)):
+            mean = sums[c] / len(clusters[c])
+            if mean <= w * (1 - criteria.freq_tol) and c == first:
+                first += 1
+            elif abs(w - mean) < criteria.freq_tol * w:
                 value = abs(np.vdot(shapes[c], phi)) ** 2  # both of unit norm
                 if value > best_mac:
                     best, best_mac = c, value
