@@ -54,10 +54,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from structbench.models import Model
 
+from .blas import one_blas_thread
 from .errors import IdentificationError
 from .modal_uncertainty import Replicates, jackknife
 from .mode_split import split_free_decays
@@ -145,7 +145,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     order_cap = min(max_order, q * r, p * mo - mo)
     full = cov.mean()
     W = row_projection(full, mo)
-    with threadpool_limits(1, "blas"):  # many small factorisations: threads only cost here
+    with one_blas_thread():  # many small factorisations: threads only cost here
         H = BlockHankel(project(full, W), p, q)
         U, s, V = leading_svd(H, order_cap, power=1)
         replicates = Replicates(cov, W, H, U) if uncertainty == "jackknife" else None

@@ -65,8 +65,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 from scipy.stats import chi2
-from threadpoolctl import threadpool_limits
 
+from .blas import one_blas_thread
 from .errors import IdentificationError
 from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
 from .free_decay_fit import Group, Projection, basis, fit_poles, omega_zeta, project
@@ -223,7 +223,7 @@ def split_close_modes(records: list[np.ndarray], dt: float, omega: np.ndarray, z
     k = omega.size
     rows = [(omega[j], zeta[j], omega_std[j], zeta_std[j], shapes[:, j], j, False) for j in range(k)]
     if k:
-        with threadpool_limits(1, "blas"):  # small factorisations: threads only cost here
+        with one_blas_thread():  # small factorisations: threads only cost here
             rows = _refine(records, dt, omega, zeta, rows, alpha)
     rows = sorted(rows, key=lambda r: r[0])
     cols = list(zip(*rows)) if rows else [[]] * 7
