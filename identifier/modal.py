@@ -57,11 +57,11 @@ import numpy as np
 
 from structbench.models import Model
 
-from .blas import one_blas_thread
 from .errors import IdentificationError
 from .modal_uncertainty import Replicates, jackknife
 from .mode_split import split_free_decays
 from .results import Identification
+from .runtime import keep_freed_memory, one_blas_thread
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi_hankel import BlockHankel, leading_svd
@@ -120,6 +120,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
     records, channels, dt = sensor_records(traces, quantity)
+    keep_freed_memory()  # glibc: no page faults on every Hankel product (:mod:`identifier.runtime`)
     m = records[0].shape[0]
     r = min(references, m)
     if (block_rows is not None and block_rows < 2) or max_order < 2 or segments < 2 or references < 1:

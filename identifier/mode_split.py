@@ -66,12 +66,12 @@ import numpy as np
 import scipy.linalg as la
 from scipy.stats import chi2
 
-from .blas import one_blas_thread
 from .errors import IdentificationError
 from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
 from .free_decay_fit import Group, Projection, basis, fit_poles, omega_zeta, project
 from .local_space import REACH, local_space
 from .rank_one_fit import Layout, ModeFit, fit_modes
+from .runtime import one_blas_thread
 from .traces import Trace
 
 ALPHA = 0.01

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as la
 
 
 @dataclass(frozen=True)
@@ -63,7 +64,7 @@ def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles
     the eigenvalues of ``M = G_n^(-1) K_n`` and the shapes ``C psi_A = U_top,n psi``
     (any basis of the same span gives the same poles and shapes)."""
     n = order
-    mu, psi = np.linalg.eig(np.linalg.solve(space.gram[:n, :n], space.shift[:n, :n]))
+    mu, psi = np.linalg.eig(la.solve(space.gram[:n, :n], space.shift[:n, :n], assume_a="pos", check_finite=False))
     keep = np.flatnonzero(mu.imag > 0)
     sc = np.log(mu[keep]) / dt
     omega = np.abs(sc)
