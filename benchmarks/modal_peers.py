@@ -27,10 +27,10 @@ Like for like, three comparisons:
 3. at equal accuracy (``--sweep``): both over their block rows (the modal
    method's point estimates), and for every setting of each the fastest
    setting of the other whose median worst frequency error is no larger.
-Both fit models up to the same highest order (``--ordmax``, 40: the 15 modes
-the beam's response carries need 30; the modal method's own default, 80,
-is for structures it knows nothing of and about doubles its time, mostly
-in the eigenvalue problems of the higher orders). Both run in
+Both fit models up to the same highest order (``--ordmax``, 40: the 15
+modes the beam's response carries need 30; the modal method's own default,
+80, is for structures it knows nothing of and costs it 2.2-2.4 times as
+long, mostly in the eigenvalue problems of the higher orders). Both run in
 this process, one after the other on the same traces; the
 peer's BLAS is held to one thread (``--peer-threads``): OpenBLAS's threads
 spin when the cores are shared, and on a loaded machine made pyoma-2's SVD up
