@@ -89,9 +89,9 @@ def coherence(U: np.ndarray, rows: int, poles: Poles, index: int) -> float:
     pole that fits the covariance estimates' own noise (at orders past the
     structure's) is not: a small fraction."""
     n, k = poles.order, poles.index[index]
-    psi = np.zeros(U.shape[1], complex)
-    psi[:n] = poles.vectors[:, k]  # U @ psi on the whole (contiguous) basis: no copy of U[:, :n]
-    o = (U @ psi.real + 1j * (U @ psi.imag)).reshape(-1, rows)
+    psi = poles.vectors[:, k]
+    parts = U[:, :n] @ np.column_stack([psi.real, psi.imag])  # one product for both parts
+    o = (parts[:, 0] + 1j * parts[:, 1]).reshape(-1, rows)
     w = poles.mu[k] ** np.arange(o.shape[0])
     return float(np.linalg.norm(w.conj() @ o) ** 2 / (np.sum(np.abs(w) ** 2) * np.linalg.norm(o) ** 2))
 
