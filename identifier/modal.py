@@ -19,16 +19,20 @@ Steps (each its own module):
    ``[R_1 .. R_q] V S^-1``);
 3. stabilisation across orders and clustering of the stable poles into modes,
    estimated as medians over all their stable poles (:mod:`identifier.stabilisation`);
-   a mode whose representative pole's observability vector does not follow
-   the geometric sequence ``mu^i`` of its eigenvalue over the block rows
-   (temporal coherence below ``COHERENCE``, :func:`identifier.ssi_poles.coherence`)
-   is a pole of the covariance estimates' own noise and dropped: such poles
-   become stable at orders far past the structure's (a response that dies
-   out early in a long record, few modes on many sensors) and never at
-   ``STEADY`` (80 %) of the orders or more, while a heavily damped mode of a
-   random response, stable at nearly every order, can lose its coherence in
-   the noise of lags many of its decay times long (two modes of zeta 0.048
-   of the random structures of ``benchmarks/modal_fuzz.py``: 0.35 and 0.50);
+   a mode whose observability vectors do not follow the geometric sequence
+   ``mu^i`` of their eigenvalue over the block rows (temporal coherence,
+   :func:`identifier.ssi_poles.coherence`, below ``COHERENCE``) is a pole
+   of the covariance estimates' own noise and dropped: such poles become
+   stable at orders far past the structure's (a response that dies out
+   early in a long record, few modes on many sensors) and never at
+   ``STEADY`` (80 %) of the orders or more. A mode's coherence is the
+   median over ``COHERENCE_ORDERS`` of its orders, spread over those it is
+   stable at, of its most coherent pole at each: one pole is no measure
+   (within one heavily damped mode of a random response it ranges from 0.3
+   to 1 between orders, and a noise pole can join the mode's cluster at the
+   same order: the pole nearest the median frequency, which alone used to
+   decide, lost one such mode of ``benchmarks/modal_fuzz.py`` at 0.35 and
+   kept another at 0.50 only by the ``STEADY`` exemption);
 4. standard errors of every frequency and damping ratio by the delete-one-group
    jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
@@ -72,6 +76,7 @@ from .traces import Channel, Trace
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
 UNCERTAINTY = ("jackknife", "off")
 COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.ssi_poles.coherence`)
+COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there
 STEADY = 0.8  # ... unless it is stable at this share of the orders or more
 
 
@@ -154,10 +159,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
         by_order = {pl.order: pl for pl in poles}
-        fit = {}  # (order, index) of a mode's representative pole: its coherence
+        fit = {}  # (order, index) of a mode's representative pole: the mode's coherence
 
         def coherent(md: Mode) -> bool:
-            fit[md.order, md.index] = coherence(U, mo, by_order[md.order], md.index)
+            fit[md.order, md.index] = _coherence(U, mo, by_order, md.members)
             return fit[md.order, md.index] >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
 
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
@@ -192,6 +197,17 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "coherence": fits,
                  "refined": split.refined.tolist(),
                  "stabilisation": _diagram(poles, flags)})
+
+
+def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], members: tuple[tuple[int, int], ...],
+               count: int = COHERENCE_ORDERS) -> float:
+    """A mode's temporal coherence: at ``count`` of its orders spread over
+    those of its stable poles ``members`` ((order, index) pairs), the
+    coherence of its most coherent pole there; their median."""
+    orders = sorted({n for n, _ in members})
+    picks = [orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))]
+    return float(np.median([max(coherence(U, rows, by_order[n], j) for k, j in members if k == n)
+                            for n in picks]))
 
 
 def _spread(modes: list[Mode], count: int = 8) -> list[tuple[tuple[int, int], ...]]:
