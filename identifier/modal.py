@@ -120,7 +120,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     do not). ``refine``: ``auto`` fits free responses whole to split close
     pairs (:mod:`identifier.mode_split`), ``off`` does not. ``uncertainty``:
     ``off`` skips the jackknife (about half the time): no standard errors
-    (NaN) and no check that replicates find each mode again."""
+    (NaN) and no check that replicates find each mode again. The first
+    call raises glibc's malloc thresholds for the process
+    (:func:`identifier.runtime.keep_freed_memory`)."""
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
