@@ -23,6 +23,8 @@ import numpy as np
 import scipy.fft as sfft
 import scipy.linalg as la
 
+from .runtime import clear_upper_registers
+
 
 class BlockHankel:
     """Block Hankel operator(s) of ``p`` block rows and ``q`` block columns of
@@ -57,7 +59,9 @@ class BlockHankel:
         """``Z_i = sum_j R[i + j] X_j`` for i < ``blocks_out``: the convolution of
         ``R`` with the blocks of ``X`` in reverse order (``Xf``, their FFT), read
         from ``blocks_in - 1``."""
-        Z = sfft.irfft(spectrum @ Xf, n=self.size, axis=-3)
+        product = spectrum @ Xf
+        clear_upper_registers()  # zgemm leaves them dirty: the FFT would run 2.7 times slower
+        Z = sfft.irfft(product, n=self.size, axis=-3)
         return Z[..., blocks_in - 1:blocks_in - 1 + blocks_out, :, :].reshape(*Z.shape[:-3], -1, Xf.shape[-1])
 
     def dense(self) -> np.ndarray:
@@ -72,23 +76,27 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     """``U`` (p m, count), ``s`` (count,), ``V`` (q r, count): the leading
     singular triplets of ``H`` by subspace iteration (Halko, Martinsson and
     Tropp 2011): ``power`` steps from ``H`` times a fixed-seed Gaussian probe
-    of ``count + 10`` columns, then the SVD ``U_b S W^T`` of the small ``Q^T H``
-    from the triangular factor of ``H^T Q = Q_Z R`` alone (``Q^T H = R^T
-    Q_Z^T``, so ``U = Q U_b`` and ``V = H^T Q U_b S^-1``). The leading
-    vectors converge as ``(s_(count+10) / s_i)^(2 power + 1)``: exact for a
-    matrix of rank below ``count + 10``, accurate for the structural
-    (signal) part of a noisy one. Between steps the basis only needs to
-    span the iterate: a pivoted LU (a quarter of the cost of a Householder
-    QR) keeps it well scaled; the last basis is orthonormal (QR)."""
+    of ``count + 10`` columns, then the SVD ``U_b S W^T`` of the small ``Q^T
+    H`` from the eigen-decomposition of ``Z^T Z`` alone, ``Z = H^T Q``
+    (``Q^T H H^T Q = U_b S^2 U_b^T``, so ``U = Q U_b`` and ``V = Z U_b
+    S^-1``): a third of the cost of a QR of the tall ``Z``, accurate to
+    about ``eps s_1^2 / s_i^2`` relative (a mode 10^-5 below the strongest
+    in a noise-free free decay: frequency within 1e-8), far below the noise
+    of any singular value a model order uses. The leading vectors
+    converge as ``(s_(count+10) / s_i)^(2 power + 1)``: exact for a matrix
+    of rank below ``count + 10``, accurate for the structural (signal) part
+    of a noisy one. Between steps the basis only needs to span the iterate:
+    a pivoted LU (a quarter of the cost of a Householder QR) keeps it well
+    scaled; the last basis is orthonormal (QR)."""
     width = min(count + 10, *H.shape)
     Y = H @ np.random.default_rng(0).standard_normal((H.shape[1], width))
     for _ in range(power):
         Y = H @ H.rmatmul(_span(Y))
     Q = la.qr(Y, mode="economic", overwrite_a=True)[0]
     Z = H.rmatmul(Q)  # (q r, width) = (Q^T H)^T
-    R = la.qr(Z, mode="r", check_finite=False)[0][:width]  # Z = Q_Z R: Q^T H = R^T Q_Z^T
-    Ub, s = la.svd(R.T, check_finite=False)[:2]
-    Ub, s = Ub[:, :count], s[:count]
+    s2, Ub = la.eigh(Z.T @ Z, overwrite_a=True, check_finite=False)
+    s2, Ub = s2[::-1][:count], Ub[:, ::-1][:, :count]
+    s = np.sqrt(np.maximum(s2, s2[0] * np.finfo(float).eps ** 2))  # a numerical zero stays finite
     return Q @ Ub, s, (Z @ Ub) / np.where(s > 0, s, 1.0)
 
 
