@@ -13,15 +13,18 @@
   test machine (about 4 us each). Raising glibc's mmap threshold to 32 MB
   and its trim threshold to 64 MB (what glibc itself adopts after the
   first free of a 32 MB block) keeps them in the heap: no faults.
-- Vector registers left clean after complex matrix products
-  (:func:`clear_upper_registers`): OpenBLAS's AVX-512 ``zgemm`` kernel
-  (the ``SkylakeX`` one, which it also picks on AMD Zen 4) returns without
-  ``vzeroupper``. Until some AVX code executes one, the non-VEX SSE code
-  that runs next pays a false dependency on every instruction (the
-  AVX/SSE transition penalty): pocketfft's FFTs after ``S @ X`` ran 2.7
-  times slower (1.45 ms instead of 0.53 ms for the beam's Hankel
-  products), a seventh of an identification. Real products (``dgemm``)
-  and numpy's own SIMD loops leave the registers clean.
+- FFTs on clean vector registers (:func:`rfft`, :func:`irfft`):
+  OpenBLAS's AVX-512 complex kernels (``zgemm``, the ``SkylakeX`` ones,
+  which it also picks on AMD Zen 4) return without ``vzeroupper``. Until
+  some AVX code executes one, non-VEX SSE code pays a false dependency on
+  every instruction (the AVX/SSE transition penalty). Of what the modal
+  method runs, only pocketfft's FFTs are such code: after any complex
+  matrix product (``S @ X``, a MAC matrix, complex shapes) they ran 2.7
+  times slower (1.42 ms instead of 0.53 ms for the beam's Hankel
+  products), a seventh of an identification; LAPACK, numpy's random
+  numbers and reductions were not slowed. Real products (``dgemm``) and
+  numpy's own SIMD loops leave the registers clean, so a 64-element numpy
+  ufunc before each FFT (about 1 us) clears them.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ import ctypes.util
 from functools import cache
 
 import numpy as np
+import scipy.fft as sfft
 from threadpoolctl import ThreadpoolController
 
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc <malloc.h>
@@ -62,6 +66,17 @@ def keep_freed_memory() -> bool:
 
 def clear_upper_registers() -> None:
     """Leave the AVX registers' upper halves zero (a 64-element numpy
-    ufunc: its AVX loop ends with ``vzeroupper``): call after a complex
-    matrix product that SSE code (an FFT) follows; about 1 us."""
+    ufunc: its AVX loop ends with ``vzeroupper``)."""
     np.multiply(_SCRATCH, 0.0, out=_SCRATCH)
+
+
+def rfft(x: np.ndarray, n: int | None = None, axis: int = -1) -> np.ndarray:
+    """``scipy.fft.rfft`` on clean vector registers (see the module docstring)."""
+    clear_upper_registers()
+    return sfft.rfft(x, n=n, axis=axis)
+
+
+def irfft(x: np.ndarray, n: int, axis: int = -1) -> np.ndarray:
+    """``scipy.fft.irfft`` on clean vector registers (see the module docstring)."""
+    clear_upper_registers()
+    return sfft.irfft(x, n=n, axis=axis)

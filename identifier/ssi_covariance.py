@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
+from .runtime import irfft, rfft
+
 
 @dataclass(frozen=True)
 class Covariances:
@@ -156,8 +158,8 @@ def _lagged_sums(y: np.ndarray, scale: np.ndarray, refs: np.ndarray, pieces: lis
         ref = ahead[:, refs]
         for s, (a, b) in enumerate(chunk):
             ref[s, :, b - a:] = 0.0
-        cross += np.einsum("saf,scf->acf", sfft.rfft(ahead, axis=2), sfft.rfft(ref, axis=2).conj(), optimize=True)
-    return sfft.irfft(cross, n=size, axis=2)[:, :, 1:lags + 1].transpose(2, 0, 1)
+        cross += np.einsum("saf,scf->acf", rfft(ahead, axis=2), rfft(ref, axis=2).conj(), optimize=True)
+    return irfft(cross, n=size, axis=2)[:, :, 1:lags + 1].transpose(2, 0, 1)
 
 
 def row_projection(R: np.ndarray, count: int) -> np.ndarray | None:

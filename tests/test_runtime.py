@@ -26,6 +26,7 @@ omega, zeta = np.array([2.1, 5.3, 9.8, 14.2]), np.array([0.002, 0.003, 0.004, 0.
 y = free_decays(omega, zeta, shapes, np.ones((1, 4), complex), 0.05, 20000, 0.02, 1)[0]
 record = modal_fuzz.trace(y, 0.05)
 modal.identify([record], uncertainty="off")
+modal.identify([record], uncertainty="off")
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 modes = modal.identify([record], uncertainty="off").omega
 print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before, len(modes))
@@ -33,8 +34,11 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before, len(modes))
 
 
 def _faults(setting: str) -> tuple[int, int]:
-    """Minor page faults of the second identification of one record in a
-    fresh process, and the number of modes it found."""
+    """Minor page faults of the third identification of one record in a
+    fresh process, and the number of modes it found (the first two set the
+    heap's high-water mark: the first also makes the probe's spectrum that
+    :func:`identifier.ssi_hankel.leading_svd` keeps, and the second's
+    arrays then lie around it)."""
     done = subprocess.run([sys.executable, "-c", SCRIPT, setting], capture_output=True, text=True, check=True)
     faults, modes = done.stdout.split()
     return int(faults), int(modes)
