@@ -163,9 +163,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         by_order = {pl.order: pl for pl in poles}
         fit = {}  # (order, index) of a mode's representative pole: the mode's coherence
 
-        def coherent(md: Mode) -> bool:
-            fit[md.order, md.index] = _coherence(U, mo, by_order, md.members)
-            return fit[md.order, md.index] >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
+        def coherent(candidates: list[Mode]) -> list[bool]:
+            fit.update(zip([(md.order, md.index) for md in candidates], _coherence(U, mo, by_order, candidates)))
+            return [fit[md.order, md.index] >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
+                    for md in candidates]
 
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
         fits = [fit[md.order, md.index] for md in modes]
@@ -201,15 +202,27 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "stabilisation": _diagram(poles, flags)})
 
 
-def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], members: tuple[tuple[int, int], ...],
-               count: int = COHERENCE_ORDERS) -> float:
-    """A mode's temporal coherence: at ``count`` of its orders spread over
-    those of its stable poles ``members`` ((order, index) pairs), the
-    coherence of its most coherent pole there; their median."""
-    orders = sorted({n for n, _ in members})
-    picks = [orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))]
-    return float(np.median([max(coherence(U, rows, by_order[n], j) for k, j in members if k == n)
-                            for n in picks]))
+def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list[Mode],
+               count: int = COHERENCE_ORDERS) -> list[float]:
+    """Each mode's temporal coherence: at ``count`` of its orders spread over
+    those of its stable poles (``members``, (order, index) pairs), the
+    coherence of its most coherent pole there; their median. One
+    :func:`coherence` call per order for the poles of every mode there."""
+    picks = []  # per mode, per picked order: its poles' indices there
+    for md in modes:
+        orders = sorted({n for n, _ in md.members})
+        chosen = [orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))]
+        picks.append([(n, [j for k, j in md.members if k == n]) for n in chosen])
+    needed: dict[int, set[int]] = {}
+    for mode_picks in picks:
+        for n, indices in mode_picks:
+            needed.setdefault(n, set()).update(indices)
+    value = {}
+    for n, indices in needed.items():
+        order = sorted(indices)
+        value.update(zip([(n, j) for j in order], coherence(U, rows, by_order[n], np.array(order))))
+    return [float(np.median([max(value[n, j] for j in indices) for n, indices in mode_picks]))
+            for mode_picks in picks]
 
 
 def _spread(modes: list[Mode], count: int = 8) -> list[tuple[tuple[int, int], ...]]:

@@ -75,11 +75,12 @@ def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles
     return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending], mu, psi, keep[ascending])
 
 
-def coherence(U: np.ndarray, rows: int, poles: Poles, index: int) -> float:
-    """Temporal coherence (0..1) of pole ``index`` of ``poles``: how much of
-    its observability vector ``o = U_n psi`` (``U`` (p rows, N) the
-    orthonormal basis the poles come from; blocks ``o_i`` (rows,), i < p)
-    the geometric sequence ``mu^i phi`` of its own eigenvalue explains,
+def coherence(U: np.ndarray, rows: int, poles: Poles, indices: np.ndarray) -> np.ndarray:
+    """Temporal coherence (t,), 0..1, of the poles ``indices`` (t,) of
+    ``poles``: how much of a pole's observability vector ``o = U_n psi``
+    (``U`` (p rows, N) the orthonormal basis the poles come from; blocks
+    ``o_i`` (rows,), i < p) the geometric sequence ``mu^i phi`` of its own
+    eigenvalue explains,
 
         |sum_i conj(mu)^i o_i|^2 / (sum_i |mu|^(2i) sum_i |o_i|^2),
 
@@ -87,13 +88,15 @@ def coherence(U: np.ndarray, rows: int, poles: Poles, index: int) -> float:
     extended modal amplitude coherence of ERA, Pappa et al. 1993). A pole of
     the structure is shift invariant over every block row: 1 up to noise. A
     pole that fits the covariance estimates' own noise (at orders past the
-    structure's) is not: a small fraction."""
-    n, k = poles.order, poles.index[index]
+    structure's) is not: a small fraction. One product ``U_n [Re Psi, Im
+    Psi]`` for all of them."""
+    n, k = poles.order, poles.index[np.asarray(indices)]
     psi = poles.vectors[:, k]
-    parts = U[:, :n] @ np.column_stack([psi.real, psi.imag])  # one product for both parts
-    o = (parts[:, 0] + 1j * parts[:, 1]).reshape(-1, rows)
-    w = poles.mu[k] ** np.arange(o.shape[0])
-    return float(np.linalg.norm(w.conj() @ o) ** 2 / (np.sum(np.abs(w) ** 2) * np.linalg.norm(o) ** 2))
+    parts = U[:, :n] @ np.hstack([psi.real, psi.imag])
+    o = (parts[:, :k.size] + 1j * parts[:, k.size:]).reshape(-1, rows, k.size)  # (p, rows, t)
+    w = poles.mu[k][None, :] ** np.arange(o.shape[0])[:, None]  # (p, t)
+    fit = np.sum(np.abs(np.einsum("pt,prt->rt", w.conj(), o)) ** 2, axis=0)
+    return fit / (np.sum(np.abs(w) ** 2, axis=0) * np.sum(np.abs(o) ** 2, axis=(0, 1)))
 
 
 def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -132,11 +132,12 @@ def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -
     return clusters
 
 
-def select_modes(poles: list[Poles], criteria: Criteria, valid: Callable[[Mode], bool] | None = None
-                 ) -> tuple[list[Mode], list[np.ndarray]]:
+def select_modes(poles: list[Poles], criteria: Criteria,
+                 valid: Callable[[list[Mode]], list[bool]] | None = None) -> tuple[list[Mode], list[np.ndarray]]:
     """The modes (ascending frequency) and the stability flags per order;
     ``valid``: a further test every mode must pass before shadows are
-    dropped (so that a mode it rejects shadows none)."""
+    dropped (so that a mode it rejects shadows none), given all the
+    candidate modes at once, one verdict each."""
     flags = stable_flags(poles, criteria)
     need = max(2, int(np.ceil(criteria.min_fraction * (len(poles) - 1))))
     modes = []
@@ -150,7 +151,8 @@ def select_modes(poles: list[Poles], criteria: Criteria, valid: Callable[[Mode],
         modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
                           tuple((poles[a].order, int(b)) for a, b in used),
                           float(np.median(omega)), float(np.median(zeta))))
-    modes = [md for md in modes if valid is None or valid(md)]
+    if valid is not None:
+        modes = [md for md, ok in zip(modes, valid(modes)) if ok]
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
 
 
