@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from structbench.identifier.ssi_covariance import covariances, group_labels, is_free_decay, reference_channels
-from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency
+from scipy.signal import welch
+
+from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
 from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
 
 
@@ -86,6 +88,18 @@ def test_lowest_frequency_is_where_two_percent_of_the_power_lies():
     y = np.sqrt(0.05) * np.sin(2 * np.pi * 0.5 * t) + np.sqrt(0.95) * np.sin(2 * np.pi * 4.0 * t)
     records = [np.vstack([y, y]) + 0.01 * rng.standard_normal((2, t.size))]
     assert lowest_frequency(records, 0.01, np.arange(2)) == pytest.approx(0.5, abs=0.02)
+
+
+@pytest.mark.parametrize("size, batch", [(256, 1 << 22), (255, 1 << 22), (256, 1000)])
+def test_welch_power_is_scipys_welch_up_to_its_scale(size, batch):
+    """Summed over three channels, for even and odd segments and in batches
+    of a few segments: scipy.signal.welch's density spectrum, times one
+    constant (its ``fs sum(window^2)``)."""
+    z = np.random.default_rng(4).standard_normal((3, 5000)) + np.arange(3)[:, None]
+    f, P = welch(z, fs=20.0, nperseg=size, axis=1)
+    ours = welch_power(z, size, batch)
+    assert ours.shape == f.shape
+    assert ours / P.sum(axis=0) == pytest.approx(np.full(f.size, ours[1] / P.sum(axis=0)[1]), rel=1e-10)
 
 
 def test_block_sizes_follow_their_rules():
