@@ -14,6 +14,7 @@ give ``zeta`` of either sign around 0: the sign is not used to reject poles.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as la
@@ -49,6 +50,17 @@ class Subspace:
     gram: np.ndarray
     shift: np.ndarray
 
+    @cached_property
+    def whitened(self) -> tuple[np.ndarray, np.ndarray]:
+        """``L`` (N, N), the lower Cholesky factor of ``G = L L^T``, and ``T =
+        L^-1 K L^-T`` (N, N): for every order ``n``, ``L_n`` (the leading
+        n x n block) is the Cholesky factor of ``G_n`` and ``T_n = L_n^-1 K_n
+        L_n^-T`` (``L^-1`` is lower triangular), similar to ``M_n = G_n^-1
+        K_n``: one factorisation serves every order."""
+        L = la.cholesky(self.gram, lower=True, check_finite=False)
+        LiK = la.solve_triangular(L, self.shift, lower=True, check_finite=False)
+        return L, la.solve_triangular(L, LiK.T, lower=True, check_finite=False).T
+
 
 def subspace(B: np.ndarray, m: int) -> Subspace:
     """:class:`Subspace` of a basis ``B`` (p m, N), in order: column ``n``
@@ -61,10 +73,14 @@ def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles
     """Poles of model order ``order`` (``dt`` s; ``scale`` (m,) the channel RMS
     that standardised the outputs). With ``O = U_n S_n^(1/2)`` the least-squares
     ``A = pinv(O_up) O_down = S^(-1/2) G_n^(-1) K_n S^(1/2)``, so the poles are
-    the eigenvalues of ``M = G_n^(-1) K_n`` and the shapes ``C psi_A = U_top,n psi``
-    (any basis of the same span gives the same poles and shapes)."""
+    the eigenvalues of ``M = G_n^(-1) K_n``, those of ``T_n = L_n^-1 K_n L_n^-T``
+    (:attr:`Subspace.whitened`) with eigenvectors ``phi``; ``M``'s are ``psi
+    = L_n^-T phi`` and the shapes ``C psi_A = U_top,n psi`` (any basis of the
+    same span gives the same poles and shapes)."""
     n = order
-    mu, psi = np.linalg.eig(la.solve(space.gram[:n, :n], space.shift[:n, :n], assume_a="pos", check_finite=False))
+    L, T = space.whitened
+    mu, phi = np.linalg.eig(T[:n, :n])
+    psi = la.solve_triangular(L[:n, :n], phi, trans="T", lower=True, check_finite=False)
     keep = np.flatnonzero(mu.imag > 0)
     sc = np.log(mu[keep]) / dt
     omega = np.abs(sc)
