@@ -101,6 +101,26 @@ def is_free_decay(y: np.ndarray) -> bool:
     return bool(first > 10.0 * last)
 
 
+def stationary_piece(usable: int, groups: int, lags: int, m: int, r: int) -> int:
+    """Reference samples per FFT piece of a stationary record of ``usable``
+    reference samples in ``groups`` contiguous groups, ``m`` channels and
+    ``r`` references: of lengths from a 16th of the lag span up to
+    ``max(lags, 4096)`` (at most a group's share), the one of least work:
+    each piece's forward transforms (``m + r`` series of ``F log F``) and
+    cross spectra (``m r F / 2`` complex products, counted as ``0.8 m r
+    F``), each group's inverse transform (``m r`` series), ``F`` the next
+    fast length of at least ``piece + lags + 1``. A long record takes long
+    pieces (its forward transforms dominate); a short one, whose ``m r``
+    inverse series dominate, short ones."""
+    share = -(-usable // groups)
+    longest = min(max(lags, 4096), share)
+    pieces = np.unique(np.geomspace(max(1, min(longest, lags // 16)), longest, 24).astype(int))
+    sizes = np.array([sfft.next_fast_len(int(piece) + lags + 1, real=True) for piece in pieces])
+    work = (groups * -(-share // pieces) * ((m + r) * np.log2(sizes) + 0.8 * m * r)
+            + groups * m * r * np.log2(sizes)) * sizes
+    return int(pieces[np.argmin(work)])
+
+
 def _runs(labels: np.ndarray, piece: int) -> list[tuple[int, int, int]]:
     """(start, stop, group) of the runs of equal ``labels``, cut into pieces of at most ``piece`` samples."""
     edges = np.r_[0, np.flatnonzero(np.diff(labels)) + 1, labels.size]
@@ -130,7 +150,7 @@ def covariances(records: list[np.ndarray], dt: float, lags: int, references: int
     for y in records:
         usable = y.shape[1] - lags  # the same reference samples k for every lag keep R_l = C A^(l-1) G exact
         decay = is_free_decay(y / scale[:, None])
-        piece = decay_block(lags) if decay else min(max(lags, 4096), -(-usable // groups))
+        piece = decay_block(lags) if decay else stationary_piece(usable, groups, lags, m, refs.size)
         size = sfft.next_fast_len(piece + lags + 1, real=True)
         runs = _runs(group_labels(usable, groups, lags, decay), piece)
         for g in range(groups):
