@@ -19,7 +19,7 @@ is never formed (:meth:`BlockHankel.dense` does, for checks).
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from collections import OrderedDict
 
 import numpy as np
 import scipy.fft as sfft
@@ -106,16 +106,26 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     return Q @ Ub, s, (Z @ Ub) / np.where(s > 0, s, 1.0)
 
 
-@lru_cache(maxsize=4)
+PROBE_BYTES = 64 << 20  # probe spectra kept, at most (:func:`_probe_spectrum`)
+_probes: OrderedDict[tuple[int, int, int, int], np.ndarray] = OrderedDict()
+
+
 def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.ndarray:
     """The FFT (:meth:`BlockHankel.transform`, read-only) of the Gaussian
     probe (``columns`` x ``references``, ``width``) drawn from seed 0: a
     constant of the method, made once per shape and process (on the beam's
-    4250 x 50, 2.8 ms of a 28 ms identification)."""
+    4250 x 50, 2.8 ms of a 28 ms identification) and kept while the spectra
+    of the most recent shapes take at most ``PROBE_BYTES``."""
+    key = (columns, references, width, size)
+    if key in _probes:
+        _probes.move_to_end(key)
+        return _probes[key]
     probe = np.random.default_rng(0).standard_normal((columns * references, width))
-    reverse = probe.reshape(columns, references, width)[::-1]
-    spectrum = rfft(reverse, n=size, axis=-3)
+    spectrum = rfft(probe.reshape(columns, references, width)[::-1], n=size, axis=-3)
     spectrum.flags.writeable = False
+    _probes[key] = spectrum
+    while len(_probes) > 1 and sum(a.nbytes for a in _probes.values()) > PROBE_BYTES:
+        _probes.popitem(last=False)
     return spectrum
 
 

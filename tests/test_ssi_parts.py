@@ -12,6 +12,7 @@ from structbench.identifier.ssi_covariance import covariances, group_labels, is_
 from scipy.signal import welch
 
 from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
+from structbench.identifier import ssi_hankel
 from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
 
 
@@ -61,6 +62,22 @@ def test_hankel_products_by_fft_are_the_matrix_products(rows, columns):
     assert H.rmatmul(Y) == pytest.approx(np.swapaxes(explicit, 1, 2) @ Y, abs=1e-12)
     one = BlockHankel(R[1], rows, columns)
     assert one.rmatmul(Y[2], one.transform(Y[2], rows)) == pytest.approx(explicit[1].T @ Y[2], abs=1e-12)
+
+
+def test_the_kept_probe_is_the_seed_zero_gaussian_and_its_spectra_stay_bounded(monkeypatch):
+    """``H.probe(k)`` is ``H`` times the Gaussian probe of seed 0, whether
+    its spectrum was just made or kept; past ``PROBE_BYTES`` the oldest
+    shapes' spectra are dropped (the newest is always kept)."""
+    R = np.random.default_rng(5).standard_normal((60, 4, 3))
+    monkeypatch.setattr(ssi_hankel, "_probes", type(ssi_hankel._probes)())
+    monkeypatch.setattr(ssi_hankel, "PROBE_BYTES", 20_000)  # two of these 8.7 kB spectra
+    for rows in (10, 20, 30, 10):
+        H = BlockHankel(R, rows, 50 - rows)
+        probe = np.random.default_rng(0).standard_normal((H.shape[1], 7))
+        assert H.probe(7) == pytest.approx(H.dense() @ probe, abs=1e-12)
+        kept = [a.nbytes for a in ssi_hankel._probes.values()]
+        assert sum(kept) <= 20_000
+    assert list(ssi_hankel._probes) == [(20, 3, 7, 50), (40, 3, 7, 50)]  # rows 30 and 10 again
 
 
 @pytest.mark.parametrize("rows, columns", [(50, 29), (20, 59)])  # tall and wide
