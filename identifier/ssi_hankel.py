@@ -97,7 +97,7 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     width = min(count + 10, *H.shape)
     Y = H.probe(width)
     for _ in range(power):
-        Y = H @ H.rmatmul(_span(Y))
+        Y = H @ H.rmatmul(la.lu(Y, permute_l=True, overwrite_a=True, check_finite=False)[0])  # P L of Y = P L U
     Q = la.qr(Y, mode="economic", overwrite_a=True)[0]
     Z = H.rmatmul(Q)  # (q r, width) = (Q^T H)^T
     s2, Ub = la.eigh(Z.T @ Z, overwrite_a=True, check_finite=False)
@@ -127,18 +127,3 @@ def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.
     while len(_probes) > 1 and sum(a.nbytes for a in _probes.values()) > PROBE_BYTES:
         _probes.popitem(last=False)
     return spectrum
-
-
-def _span(Y: np.ndarray) -> np.ndarray:
-    """A well-scaled basis ``P L`` (n, k) of the columns of ``Y`` (n, k),
-    from its LU factorisation with partial pivoting ``Y = P L U``."""
-    lu, piv = la.lu_factor(Y, overwrite_a=True, check_finite=False)
-    k = lu.shape[1]
-    L = np.tril(lu, -1)
-    L[np.arange(k), np.arange(k)] = 1.0
-    order = np.arange(lu.shape[0])
-    for i, j in enumerate(piv):  # LAPACK's row interchanges, in sequence
-        order[[i, j]] = order[[j, i]]
-    basis = np.empty_like(L)
-    basis[order] = L
-    return basis
