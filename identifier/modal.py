@@ -70,7 +70,7 @@ from .ssi_covariance import covariances, is_free_decay, project, reference_chann
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi_hankel import BlockHankel, leading_svd
 from .ssi_poles import Poles, Subspace, coherence, mpc, poles_at, real_shapes, subspace
-from .stabilisation import Criteria, Mode, select_modes
+from .stabilisation import Criteria, Mode, median, select_modes
 from .traces import Channel, Trace
 
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
@@ -221,7 +221,7 @@ def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list
     for n, indices in needed.items():
         order = sorted(indices)
         value.update(zip([(n, j) for j in order], coherence(U, rows, by_order[n], np.array(order))))
-    return [float(np.median([max(value[n, j] for j in indices) for n, indices in mode_picks]))
+    return [median([max(value[n, j] for j in indices) for n, indices in mode_picks])
             for mode_picks in picks]
 
 

@@ -147,13 +147,20 @@ def select_modes(poles: list[Poles], criteria: Criteria,
         used = list(c)
         omega = np.array([poles[i].omega[j] for i, j in used])
         zeta = np.array([poles[i].zeta[j] for i, j in used])
-        i, j = used[int(np.argmin(np.abs(omega - np.median(omega))))]
+        middle = median(omega)
+        i, j = used[int(np.argmin(np.abs(omega - middle)))]
         modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
-                          tuple((poles[a].order, int(b)) for a, b in used),
-                          float(np.median(omega)), float(np.median(zeta))))
+                          tuple((poles[a].order, int(b)) for a, b in used), middle, median(zeta)))
     if valid is not None:
         modes = [md for md, ok in zip(modes, valid(modes)) if ok]
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
+
+
+def median(values: np.ndarray | list[float]) -> float:
+    """The median of a few values: ``np.median``'s value (the mean of the
+    two middle ones for an even count) without its overhead, 2 us instead of 20."""
+    v = np.sort(np.asarray(values, dtype=float))
+    return float((v[(v.size - 1) // 2] + v[v.size // 2]) / 2)
 
 
 def _pole(poles: list[Poles], mode: Mode) -> Poles:

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from structbench.identifier.ssi_covariance import covariances, group_labels, is_free_decay, reference_channels
 from scipy.signal import welch
@@ -14,6 +16,7 @@ from scipy.signal import welch
 from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
 from structbench.identifier import ssi_hankel
 from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
+from structbench.identifier.stabilisation import median
 
 
 def lag_by_lag(records, lags, references, groups):
@@ -130,3 +133,9 @@ def test_block_sizes_follow_their_rules():
     # ... but never past n / 20 or the budget of the covariance sums (4e6 / (100 x 20) = 2000 lags)
     assert sum(block_sizes(360_000, 100, 20, 20, 80, 0.01, False, 0.001)) == 2000
     assert sum(block_sizes(20_000, 10, 10, 10, 80, 0.01, False, 0.001)) == 1000
+
+
+@settings(max_examples=200, derandomize=True, deadline=None)
+@given(st.lists(st.floats(-1e300, 1e300), min_size=1, max_size=60))
+def test_median_of_a_few_values_is_numpys(values):
+    assert median(values) == np.median(values)
