@@ -69,7 +69,7 @@ from .runtime import keep_freed_memory, one_blas_thread
 from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
 from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi_hankel import BlockHankel, leading_svd
-from .ssi_poles import Poles, Subspace, coherence, mpc, poles_at, real_shapes, subspace
+from .ssi_poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
 from .traces import Channel, Trace
 
@@ -207,22 +207,15 @@ def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list
     """Each mode's temporal coherence: at ``count`` of its orders spread over
     those of its stable poles (``members``, (order, index) pairs), the
     coherence of its most coherent pole there; their median. One
-    :func:`coherence` call per order for the poles of every mode there."""
-    picks = []  # per mode, per picked order: its poles' indices there
+    :func:`coherence` call for the poles of every mode."""
+    picks = []  # per mode, per picked order: its poles there
     for md in modes:
         orders = sorted({n for n, _ in md.members})
         chosen = [orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))]
-        picks.append([(n, [j for k, j in md.members if k == n]) for n in chosen])
-    needed: dict[int, set[int]] = {}
-    for mode_picks in picks:
-        for n, indices in mode_picks:
-            needed.setdefault(n, set()).update(indices)
-    value = {}
-    for n, indices in needed.items():
-        order = sorted(indices)
-        value.update(zip([(n, j) for j in order], coherence(U, rows, by_order[n], np.array(order))))
-    return [median([max(value[n, j] for j in indices) for n, indices in mode_picks])
-            for mode_picks in picks]
+        picks.append([[(k, j) for k, j in md.members if k == n] for n in chosen])
+    pairs = sorted({pair for mode_picks in picks for there in mode_picks for pair in there})
+    value = dict(zip(pairs, coherence(U, rows, *pole_columns(by_order, pairs, U.shape[1]))))
+    return [median([max(value[pair] for pair in there) for there in mode_picks]) for mode_picks in picks]
 
 
 def _spread(modes: list[Mode], count: int = 8) -> list[tuple[tuple[int, int], ...]]:

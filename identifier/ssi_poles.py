@@ -91,12 +91,12 @@ def poles_at(space: Subspace, order: int, dt: float, scale: np.ndarray) -> Poles
     return Poles(order, omega[ascending], zeta[ascending], shapes[:, ascending], mu, psi, keep[ascending])
 
 
-def coherence(U: np.ndarray, rows: int, poles: Poles, indices: np.ndarray) -> np.ndarray:
-    """Temporal coherence (t,), 0..1, of the poles ``indices`` (t,) of
-    ``poles``: how much of a pole's observability vector ``o = U_n psi``
-    (``U`` (p rows, N) the orthonormal basis the poles come from; blocks
-    ``o_i`` (rows,), i < p) the geometric sequence ``mu^i phi`` of its own
-    eigenvalue explains,
+def coherence(U: np.ndarray, rows: int, vectors: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """Temporal coherence (t,), 0..1, of poles ``mu`` (t,) with eigenvectors
+    ``vectors`` (N, t) in the basis ``U`` (p rows, N), each zero past its
+    own order (:func:`pole_columns`): how much of a pole's observability
+    vector ``o = U psi`` (blocks ``o_i`` (rows,), i < p) the geometric
+    sequence ``mu^i phi`` of its own eigenvalue explains,
 
         |sum_i conj(mu)^i o_i|^2 / (sum_i |mu|^(2i) sum_i |o_i|^2),
 
@@ -104,15 +104,25 @@ def coherence(U: np.ndarray, rows: int, poles: Poles, indices: np.ndarray) -> np
     extended modal amplitude coherence of ERA, Pappa et al. 1993). A pole of
     the structure is shift invariant over every block row: 1 up to noise. A
     pole that fits the covariance estimates' own noise (at orders past the
-    structure's) is not: a small fraction. One product ``U_n [Re Psi, Im
+    structure's) is not: a small fraction. One product ``U [Re Psi, Im
     Psi]`` for all of them."""
-    n, k = poles.order, poles.index[np.asarray(indices)]
-    psi = poles.vectors[:, k]
-    parts = U[:, :n] @ np.hstack([psi.real, psi.imag])
-    o = (parts[:, :k.size] + 1j * parts[:, k.size:]).reshape(-1, rows, k.size)  # (p, rows, t)
-    w = poles.mu[k][None, :] ** np.arange(o.shape[0])[:, None]  # (p, t)
+    t = mu.size
+    parts = U @ np.hstack([vectors.real, vectors.imag])
+    o = (parts[:, :t] + 1j * parts[:, t:]).reshape(-1, rows, t)  # (p, rows, t)
+    w = mu[None, :] ** np.arange(o.shape[0])[:, None]  # (p, t)
     fit = np.sum(np.abs(np.einsum("pt,prt->rt", w.conj(), o)) ** 2, axis=0)
     return fit / (np.sum(np.abs(w) ** 2, axis=0) * np.sum(np.abs(o) ** 2, axis=(0, 1)))
+
+
+def pole_columns(poles: dict[int, Poles], pairs: list[tuple[int, int]], size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvectors (size, t), zero past each one's order, and eigenvalues
+    (t,) of the poles ``pairs`` ((order, index in that order's poles))."""
+    vectors = np.zeros((size, len(pairs)), dtype=complex)
+    mu = np.empty(len(pairs), dtype=complex)
+    for c, (n, j) in enumerate(pairs):
+        k = poles[n].index[j]
+        vectors[:n, c], mu[c] = poles[n].vectors[:, k], poles[n].mu[k]
+    return vectors, mu
 
 
 def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
