@@ -164,9 +164,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         fit = {}  # (order, index) of a mode's representative pole: the mode's coherence
 
         def coherent(candidates: list[Mode]) -> list[bool]:
-            fit.update(zip([(md.order, md.index) for md in candidates], _coherence(U, mo, by_order, candidates)))
-            return [fit[md.order, md.index] >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
-                    for md in candidates]
+            values = _coherence(U, mo, by_order, candidates)
+            fit.update(((md.order, md.index), c) for md, c in zip(candidates, values))
+            return [c >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
+                    for md, c in zip(candidates, values)]
 
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
         fits = [fit[md.order, md.index] for md in modes]
