@@ -85,19 +85,26 @@ class Mode:
 
 def stable_flags(poles: list[Poles], criteria: Criteria) -> list[np.ndarray]:
     """Per order a boolean array (k,) marking the stable poles (the lowest
-    order has none)."""
-    flags = [np.zeros(poles[0].omega.size, dtype=bool)]
-    for prev, cur in zip(poles, poles[1:]):
-        ok = np.zeros(cur.omega.size, dtype=bool)
-        if prev.omega.size and cur.omega.size:
-            dfreq = np.abs(cur.omega[:, None] - prev.omega[None, :]) / cur.omega[:, None]
-            dzeta = np.abs(cur.zeta[:, None] - prev.zeta[None, :])
-            close = ((dfreq < criteria.freq_tol)
-                     & (dzeta < criteria.zeta_tol * (np.abs(cur.zeta)[:, None] + 0.002))
-                     & (mac_matrix(cur.shapes, prev.shapes) > criteria.mac_min))
-            ok = close.any(axis=1)
-        flags.append(ok & (cur.zeta > -0.02) & (cur.zeta < criteria.zeta_max))
-    return flags
+    order has none). Every pair of neighbouring orders at once (shapes of
+    unit norm, as :func:`identifier.ssi_poles.poles_at` gives them): the
+    orders' poles padded to the largest count (NaN frequencies and zero
+    shapes never pass)."""
+    counts = np.array([p.omega.size for p in poles])
+    width = max(int(counts.max()), 1)
+    omega = np.full((len(poles), width), np.nan)
+    zeta = np.full((len(poles), width), np.nan)
+    shapes = np.zeros((len(poles), poles[0].shapes.shape[0], width), dtype=complex)
+    for i, p in enumerate(poles):
+        omega[i, :p.omega.size], zeta[i, :p.omega.size], shapes[i, :, :p.omega.size] = p.omega, p.zeta, p.shapes
+    cur, prev = slice(1, None), slice(None, -1)
+    with np.errstate(invalid="ignore"):
+        dfreq = np.abs(omega[cur, :, None] - omega[prev, None, :]) / omega[cur, :, None]
+        dzeta = np.abs(zeta[cur, :, None] - zeta[prev, None, :])
+        close = ((dfreq < criteria.freq_tol)
+                 & (dzeta < criteria.zeta_tol * (np.abs(zeta[cur])[:, :, None] + 0.002))
+                 & (np.abs(np.swapaxes(shapes[cur].conj(), 1, 2) @ shapes[prev]) ** 2 > criteria.mac_min))
+        ok = close.any(axis=2) & (zeta[cur] > -0.02) & (zeta[cur] < criteria.zeta_max)
+    return [np.zeros(counts[0], dtype=bool)] + [row[:k] for row, k in zip(ok, counts[1:])]
 
 
 def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -> list[list[tuple[int, int]]]:

@@ -16,7 +16,8 @@ from scipy.signal import welch
 from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
 from structbench.identifier import ssi_hankel
 from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
-from structbench.identifier.stabilisation import median
+from structbench.identifier.ssi_poles import Poles, mac_matrix
+from structbench.identifier.stabilisation import Criteria, median, stable_flags
 
 
 def lag_by_lag(records, lags, references, groups):
@@ -139,3 +140,37 @@ def test_block_sizes_follow_their_rules():
 @given(st.lists(st.floats(-1e300, 1e300), min_size=1, max_size=60))
 def test_median_of_a_few_values_is_numpys(values):
     assert median(values) == np.median(values)
+
+
+def test_stable_flags_are_the_pairwise_definition():
+    """Random orders of 0-12 poles near a few true ones (frequencies,
+    damping ratios, unit shapes on 5 channels; each of the three jittered
+    about as far as its tolerance in a quarter of them, two modes'
+    damping ratios near the bounds, -0.02 and zeta_max): the flags of all
+    neighbouring orders at once are those of the stated criteria order by
+    order."""
+    rng = np.random.default_rng(6)
+    true, damping = np.array([1.0, 1.005, 2.0, 3.0]), np.array([0.01, -0.022, 0.2, 0.01])
+    poles = []
+    for order in range(2, 82, 2):
+        k = int(rng.integers(0, 13))
+        pick = rng.integers(0, true.size, k)
+        loose = rng.random((3, k)) < 1 / 4
+        omega = true[pick] * (1 + np.where(loose[0], 0.01, 0.002) * rng.standard_normal(k))
+        zeta = damping[pick] * (1 + np.where(loose[1], 0.12, 0.02) * rng.standard_normal(k))
+        shapes = np.eye(5)[:, pick] + np.where(loose[2], 0.2, 0.05) * (rng.standard_normal((5, k)) + 0j)
+        shapes /= np.linalg.norm(shapes, axis=0)
+        poles.append(Poles(order, omega, zeta, shapes, np.zeros(order), np.zeros((order, order)), np.arange(k)))
+    criteria = Criteria()
+    expected = [np.zeros(poles[0].omega.size, dtype=bool)]
+    for prev, cur in zip(poles, poles[1:]):
+        ok = np.array([any(abs(w - v) / w < criteria.freq_tol
+                           and abs(z - y) < criteria.zeta_tol * (abs(z) + 0.002)
+                           and mac_matrix(cur.shapes[:, [i]], prev.shapes[:, [j]])[0, 0] > criteria.mac_min
+                           for j, (v, y) in enumerate(zip(prev.omega, prev.zeta)))
+                       and -0.02 < z < criteria.zeta_max for i, (w, z) in enumerate(zip(cur.omega, cur.zeta))],
+                      dtype=bool)
+        expected.append(ok)
+    flags = stable_flags(poles, criteria)
+    assert [f.tolist() for f in flags] == [e.tolist() for e in expected]
+    assert 10 < sum(int(f.sum()) for f in flags) < sum(f.size for f in flags)  # some stable, not all
