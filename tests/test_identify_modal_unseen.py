@@ -118,10 +118,14 @@ def test_short_fuzz_profile(kind, count):
     """The fuzz benchmark's first structures (a fixed short profile; the
     benchmark runs 200 of each kind): every mode whose peak stands out of
     the noise is found within 1 %, none is invented, and the worst error
-    stays within what such records allow (free decays 0.2 %, random
-    responses of 2,000 periods 0.5 %)."""
+    of those stays within what such records allow (free decays 0.1 %:
+    0.04 % here, 0.18 % at most in the benchmark's 200; random responses
+    of 2,000 periods 0.5 %). Modes under the noise are not bounded: when
+    found they lie within 1 %, and where (0.03-0.19 % here) moves with the
+    subspace iteration's random probe (another Gaussian draw moved one
+    from 0.13 % to 0.21 %; the exact SVD gives 0.24 % for another)."""
     rows = [modal_fuzz.run(kind, seed) for seed in range(count)]
     assert all("error" not in r for r in rows)
     assert sum(r["found"] for r in rows) == sum(r["visible"] for r in rows) > 3 * count
     assert sum(r["invented"] for r in rows) == 0
-    assert max(r["freq %"] for r in rows) < (0.2 if kind == "decay" else 0.5)
+    assert max(r["visible freq %"] for r in rows) < (0.1 if kind == "decay" else 0.5)
