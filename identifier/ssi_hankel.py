@@ -20,6 +20,7 @@ is never formed (:meth:`BlockHankel.dense` does, for checks).
 from __future__ import annotations
 
 from collections import OrderedDict
+from threading import Lock
 
 import numpy as np
 import scipy.fft as sfft
@@ -108,6 +109,7 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
 
 PROBE_BYTES = 64 << 20  # probe spectra kept, at most (:func:`_probe_spectrum`)
 _probes: OrderedDict[tuple[int, int, int, int], np.ndarray] = OrderedDict()
+_probes_lock = Lock()
 
 
 def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.ndarray:
@@ -115,15 +117,17 @@ def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.
     probe (``columns`` x ``references``, ``width``) drawn from seed 0: a
     constant of the method, made once per shape and process (on the beam's
     4250 x 50, 2.8 ms of a 28 ms identification) and kept while the spectra
-    of the most recent shapes take at most ``PROBE_BYTES``."""
+    of the most recent shapes take at most ``PROBE_BYTES`` (one lock for
+    identifications in several threads)."""
     key = (columns, references, width, size)
-    if key in _probes:
-        _probes.move_to_end(key)
-        return _probes[key]
-    probe = np.random.default_rng(0).standard_normal((columns * references, width))
-    spectrum = rfft(probe.reshape(columns, references, width)[::-1], n=size, axis=-3)
-    spectrum.flags.writeable = False
-    _probes[key] = spectrum
-    while len(_probes) > 1 and sum(a.nbytes for a in _probes.values()) > PROBE_BYTES:
-        _probes.popitem(last=False)
-    return spectrum
+    with _probes_lock:
+        if key in _probes:
+            _probes.move_to_end(key)
+            return _probes[key]
+        probe = np.random.default_rng(0).standard_normal((columns * references, width))
+        spectrum = rfft(probe.reshape(columns, references, width)[::-1], n=size, axis=-3)
+        spectrum.flags.writeable = False
+        _probes[key] = spectrum
+        while len(_probes) > 1 and sum(a.nbytes for a in _probes.values()) > PROBE_BYTES:
+            _probes.popitem(last=False)
+        return spectrum
