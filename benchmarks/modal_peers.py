@@ -38,7 +38,11 @@ to 40 times slower, which would flatter the ratio. The modal method runs its
 BLAS on one thread and its jackknife replicates on two, and raises glibc's
 malloc thresholds in its process (``identifier/runtime.py``): pyoma-2 then
 runs under the same settings. Before the timed calls on a seed's traces,
-each method identifies them once untimed.
+each method identifies them once untimed. The modal method keeps the
+spectrum of its subspace iteration's random probe per Hankel shape
+(``identifier/ssi_hankel.py``, 2.8 ms of the beam's 28 to make): a setting's
+timed calls after its first seed reuse it, as the runs of a campaign
+folder do; the medians over seeds are such calls.
 
     python benchmarks/modal_peers.py [--seeds 5] [--br 100] [--ordmax 40] [--with-uncertainty] [--sweep]
 """
