@@ -141,7 +141,13 @@ class LocalPool:
 
     def death(self) -> str:
         """Why a worker process died: the signal or exit code of the one that
-        did not die by the pool's own hand."""
+        did not die by the pool's own hand. Read once the pool's own thread
+        has reaped its workers: it fails the futures first and joins the
+        processes after, and a forkserver process polled from two threads at
+        once can lose its status to the other and report 255 (a segfault
+        was reported as "exited with status 255" in one run of six)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
         codes = [p.exitcode for p in list(self._workers.values()) if p.exitcode not in (None, -signal.SIGTERM)]
         if not codes:
             return "the worker process died"
