@@ -61,8 +61,7 @@ class BlockHankel:
 
     def transform(self, X: np.ndarray, blocks: int) -> np.ndarray:
         """FFT (..., f, width, k) of the ``blocks`` blocks of ``X`` in reverse order."""
-        reverse = X.reshape(*X.shape[:-2], blocks, -1, X.shape[-1])[..., ::-1, :, :]
-        return rfft(reverse, n=self.size, axis=-3)
+        return _reversed_spectrum(X, blocks, self.size)
 
     def _correlate(self, spectrum: np.ndarray, Xf: np.ndarray, blocks_in: int, blocks_out: int) -> np.ndarray:
         """``Z_i = sum_j R[i + j] X_j`` for i < ``blocks_out``: the convolution of
@@ -107,6 +106,13 @@ def leading_svd(H: BlockHankel, count: int, power: int = 2) -> tuple[np.ndarray,
     return Q @ Ub, s, (Z @ Ub) / np.where(s > 0, s, 1.0)
 
 
+def _reversed_spectrum(X: np.ndarray, blocks: int, size: int) -> np.ndarray:
+    """FFT of length ``size`` (..., f, width, k) of the ``blocks`` blocks of
+    ``X`` (..., blocks width, k) in reverse order."""
+    reverse = X.reshape(*X.shape[:-2], blocks, -1, X.shape[-1])[..., ::-1, :, :]
+    return rfft(reverse, n=size, axis=-3)
+
+
 PROBE_BYTES = 64 << 20  # probe spectra kept, at most (:func:`_probe_spectrum`)
 _probes: OrderedDict[tuple[int, int, int, int], np.ndarray] = OrderedDict()
 _probes_lock = Lock()
@@ -125,7 +131,7 @@ def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.
             _probes.move_to_end(key)
             return _probes[key]
         probe = np.random.default_rng(0).standard_normal((columns * references, width))
-        spectrum = rfft(probe.reshape(columns, references, width)[::-1], n=size, axis=-3)
+        spectrum = _reversed_spectrum(probe, columns, size)
         spectrum.flags.writeable = False
         _probes[key] = spectrum
         while len(_probes) > 1 and sum(a.nbytes for a in _probes.values()) > PROBE_BYTES:
