@@ -5,7 +5,7 @@ This package is the public face: the Python API of :mod:`structbench.api`,
 which may import every subpackage; nothing else imports the API but the CLI.
 Subpackages: ``models`` (structures), ``fmus`` (the FMU layer), ``harness``
 (campaigns to traces), ``identifier`` (methods reading traces),
-``identification`` (methods run on a campaign folder), ``labdata`` (lab
+``dispatch`` (methods run on a campaign folder), ``labdata`` (lab
 files in and out), ``evaluation``
 (scoring, gates, report, reproduce), ``cli`` (the command line over the API).
 """

@@ -26,8 +26,8 @@ from structbench.harness.campaign import Campaign, load_campaign
 from structbench.harness.folder import CampaignStatus
 from structbench.harness.listing import listing
 from structbench.harness.run import run_campaign
-from structbench.identification.methods import Method, methods
-from structbench.identification.runs import identify_folder
+from structbench.dispatch.methods import Method, methods
+from structbench.dispatch.runs import identify_folder
 from structbench.identifier.results import result_path
 from structbench.labdata.exporter import export_traces as _export_traces
 from structbench.labdata.importer import import_files

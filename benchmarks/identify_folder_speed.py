@@ -34,7 +34,7 @@ from threadpoolctl import threadpool_limits
 
 from structbench import run_campaign
 from structbench.harness.campaign import load_campaign
-from structbench.identification.methods import method
+from structbench.dispatch.methods import method
 from structbench.identifier.traces import read_traces
 from structbench.models import load_model
 

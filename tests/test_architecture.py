@@ -68,8 +68,8 @@ def test_the_cli_imports_only_the_api():
 
 def test_harness_and_identification_keep_to_their_side():
     harness = {n for p in sources("bench/harness") for n in imports(p)}
-    identification = {n for p in sources("bench/identification") for n in imports(p)}
-    assert not [n for n in harness if under(n, "structbench.identifier", "structbench.identification",
+    identification = {n for p in sources("bench/dispatch") for n in imports(p)}
+    assert not [n for n in harness if under(n, "structbench.identifier", "structbench.dispatch",
                                              "structbench.evaluation", "structbench.cli")]
     assert not [n for n in identification if under(n, "structbench.harness", "structbench.fmus",
                                                    "structbench.evaluation", "structbench.cli")]

@@ -11,7 +11,7 @@ import pytest
 
 from structbench import api
 from structbench.cli import main
-from structbench.identification import parallel
+from structbench.dispatch import parallel
 from structbench.models import load_model
 from identify_synth import harmonic_force, respond, write_trace
 

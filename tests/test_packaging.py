@@ -45,8 +45,8 @@ def test_only_structbench_is_installed_at_top_level(venv):
     names = {p.name for p in site.iterdir()} - {"_test_dependencies.pth", "__pycache__"}
     assert {n for n in names if not n.endswith(".dist-info")} == {"structbench"}
     packages = sorted(str(p.parent.relative_to(site)) for p in site.rglob("__init__.py"))
-    assert packages == ["structbench", "structbench/campaigns", "structbench/cli", "structbench/evaluation",
-                        "structbench/fmus", "structbench/harness", "structbench/identification", "structbench/identifier",
+    assert packages == ["structbench", "structbench/campaigns", "structbench/cli", "structbench/dispatch",
+                        "structbench/evaluation", "structbench/fmus", "structbench/harness", "structbench/identifier",
                         "structbench/labdata", "structbench/models"]
     assert sorted(p.name for p in (site / "structbench" / "campaigns").glob("*.toml")) == sorted(
         p.name for p in (ROOT / "campaigns").glob("*.toml"))

@@ -22,7 +22,7 @@ from structbench.models.errors import UserError
 
 from structbench.harness.campaign import Campaign, load_campaign
 from structbench.harness.run import run_campaign
-from structbench.identification.runs import identify_folder
+from structbench.dispatch.runs import identify_folder
 
 from . import beyond_modal
 from .beyond_least_squares import beyond

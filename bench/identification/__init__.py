@@ -1,2 +1,0 @@
-"""Identification runs: the method registry and the identifiers run on a campaign
-folder. Imports the identifier and models, never the harness or fmus."""
