@@ -11,32 +11,45 @@ Units are SI throughout (rad/s, m, N, kg).
 """
 from __future__ import annotations
 
+import importlib
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-from structbench.evaluation.gates import check_campaign
-from structbench.evaluation.report import table_rows, write_report
-from structbench.evaluation.reproduce import run_all, summarize
-from structbench.evaluation.scores import score_campaign
-from structbench.fmus import build_fmu, built_module, default_fmu_dir, fmu_filename
-from structbench.harness.campaign import Campaign, load_campaign
-from structbench.harness.folder import CampaignStatus
-from structbench.harness.listing import listing
-from structbench.harness.run import run_campaign
-from structbench.dispatch.methods import Method, methods
-from structbench.dispatch.runs import identify_folder
-from structbench.identifier.results import result_path
-from structbench.labdata.exporter import export_traces as _export_traces
-from structbench.labdata.importer import import_files
-from structbench.models import DISSERTATION, load_model
-from structbench.models.errors import UserError
+from typing import TYPE_CHECKING, Any
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce", "reproduce_table",
-           "results_file", "run_campaign", "score"]
+           "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce",
+           "reproduce_table", "results_file", "run_campaign", "score"]
+
+# Names this module passes on from the subpackages, imported on first use
+# (module __getattr__): each call below imports what it needs when it runs,
+# so importing the API (and the command line's --help) stays cheap.
+_REEXPORTED = {"DISSERTATION": "structbench.models", "Campaign": "structbench.harness.campaign",
+               "load_campaign": "structbench.harness.campaign", "CampaignStatus": "structbench.harness.folder",
+               "run_campaign": "structbench.harness.run", "Method": "structbench.dispatch.methods",
+               "methods": "structbench.dispatch.methods", "UserError": "structbench.models.errors"}
+
+if TYPE_CHECKING:  # what static checkers see
+    from structbench.dispatch.methods import Method, methods
+    from structbench.harness.campaign import Campaign, load_campaign
+    from structbench.harness.folder import CampaignStatus
+    from structbench.harness.run import run_campaign
+    from structbench.models import DISSERTATION
+    from structbench.models.errors import UserError
+
+
+def __getattr__(name: str) -> Any:
+    """A name passed on from a subpackage, imported on first use."""
+    if name in _REEXPORTED:
+        value = getattr(importlib.import_module(_REEXPORTED[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
 
 
 @dataclass(frozen=True)
@@ -53,6 +66,8 @@ class BuiltFmu:
 def modes(structure: str | Path, count: int = 10) -> dict[str, Any]:
     """Natural frequencies of a built-in structure or TOML model:
     ``{"structure", "n_dof", "omega" (rad/s, rigid-body 0.0), "lambda" (omega^2)}``."""
+    from structbench.models import load_model
+    from structbench.models.errors import UserError
     if count < 1:
         raise UserError("must be at least 1", field="--count")
     model = load_model(structure)
@@ -66,6 +81,9 @@ def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path |
     (default: the dissertation's five) into ``out`` (default
     :func:`~structbench.fmus.default_fmu_dir`); FMUs already built from the
     same model and code are left untouched."""
+    from structbench.fmus import build_fmu, built_module, default_fmu_dir, fmu_filename
+    from structbench.models import DISSERTATION, load_model
+    from structbench.models.errors import UserError
     folder = Path(out) if out is not None else default_fmu_dir()
     if folder.exists() and not folder.is_dir():
         raise UserError("is a file, expected a folder", field="--out")
@@ -81,6 +99,7 @@ def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path |
 def list_traces(folder: str | Path) -> dict[str, Any]:
     """What a campaign folder holds: status summary, truth presence, tests
     with their trace files, sampling (s) and channels."""
+    from structbench.harness.listing import listing
     return listing(Path(folder))
 
 
@@ -94,6 +113,7 @@ def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None 
     document (docs/results-format.md). ``progress`` receives (runs done, runs
     in all) after every run; ``jobs`` processes identify runs in parallel
     (default: one per available core; 1: in this process), with the same results."""
+    from structbench.dispatch.runs import identify_folder
     document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
                                   groups, tests, joint, tag, options, progress, jobs)
     return document
@@ -101,18 +121,21 @@ def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None 
 
 def results_file(campaign_dir: str | Path, method: str, tag: str | None = None) -> Path:
     """Where :func:`identify` writes: ``CAMPAIGN_DIR/results/<method>[-<tag>].json``."""
+    from structbench.identifier.io.results import result_path
     return result_path(campaign_dir, method, tag)
 
 
 def score(campaign_dir: str | Path) -> dict[str, Any]:
     """Scores of every results file against ``truth.json``, keyed by file
     stem: ``{"method", "summary" (medians, 10-90 % spreads), "runs"}``."""
+    from structbench.evaluation.scores import score_campaign
     return score_campaign(campaign_dir)
 
 
 def check(campaign_dir: str | Path) -> list[dict[str, Any]]:
     """The campaign's ``[check]`` gates against its scores: one row per
     (results file, gate) with ``value``, ``threshold`` and ``ok``."""
+    from structbench.evaluation.gates import check_campaign
     return check_campaign(campaign_dir)
 
 
@@ -122,6 +145,8 @@ def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, j
     identifiers and scoring into ``out``; writes ``summary.json`` and
     ``report.md`` (with figures) there and returns the summary. ``progress``
     receives one line per stage. A second call resumes."""
+    from structbench.evaluation.report import write_report
+    from structbench.evaluation.reproduce import run_all, summarize
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     scores = run_all(out, repetitions, jobs, progress or (lambda line: None))
@@ -133,6 +158,7 @@ def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, j
 
 def reproduce_table(summary: dict[str, Any]) -> list[tuple[str, str, str]]:
     """Rows (case, the dissertation's figure, this run's) of a reproduce summary."""
+    from structbench.evaluation.report import table_rows
     return table_rows(summary)
 
 
@@ -143,6 +169,7 @@ def import_data(files: Sequence[str | Path], out: str | Path, map_file: str | Pa
     SI units from the files' unit fields, the sensor map (TOML) for what the
     files lack, ``name`` the campaign name. Returns the trace files; a bad
     file raises :class:`UserError` naming it and leaves no folder behind."""
+    from structbench.labdata.importer import import_files
     return import_files(files, out, map_file, name)
 
 
@@ -151,4 +178,5 @@ def export_traces(campaign_dir: str | Path, fmt: str, out: str | Path, binary: b
     ``binary=False``), ``csv`` or ``sep005`` files in ``out``, one per trace,
     with ``out/sensor-map.toml``; ``import_data(files, ..., map_file=that map)``
     gives the traces back. Returns the data files."""
-    return _export_traces(campaign_dir, fmt, out, binary)
+    from structbench.labdata.exporter import export_traces as export
+    return export(campaign_dir, fmt, out, binary)

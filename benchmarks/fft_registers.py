@@ -8,7 +8,7 @@ process loaded, then per case the median time (ms) dirty and cleared and
 their ratio:
 - the beam's Hankel product FFT (irfft of 251 x 10 x 50 complex) after ``S @ X``;
 - one whole point estimate of the ch5 beam (75 block rows, orders to 40),
-  with :func:`identifier.runtime.clear_upper_registers` made a no-op and as shipped.
+  with :func:`identifier.modal.runtime.clear_upper_registers` made a no-op and as shipped.
 
     python benchmarks/fft_registers.py [--repeat 30]
 """

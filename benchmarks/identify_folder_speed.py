@@ -35,7 +35,7 @@ from threadpoolctl import threadpool_limits
 from structbench import run_campaign
 from structbench.harness.campaign import load_campaign
 from structbench.dispatch.methods import method
-from structbench.identifier.traces import read_traces
+from structbench.identifier.io.traces import read_traces
 from structbench.models import load_model
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -5,7 +5,7 @@ The response from rest to forces 0.1 cos(omega_i t) N at every node (a single
 shaker would leave the far elements of a 1,500 m beam at rest within 4 s) is
 exact modal superposition (continuous forces, all modes) at t_k = 0.5 k s,
 k = 1..8; every nodal displacement, velocity and acceleration is "measured". Only the
-identification (:func:`identifier.ols.solve`, the dissertation's estimator) is timed; peak memory
+identification (:func:`identifier.least_squares.ols.solve`, the dissertation's estimator) is timed; peak memory
 is what tracemalloc sees allocated during it.
 
     python benchmarks/identify_scaling.py [N ...]
@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg as la
 
 from structbench.identifier.least_squares import Motion, solve
-from structbench.identifier.ols import DENSE_COLUMNS
+from structbench.identifier.least_squares.ols import DENSE_COLUMNS
 from structbench.models.library import beam
 
 SAMPLES = 0.5 * np.arange(1, 9)

@@ -10,7 +10,7 @@ memory against the number of samples and the model size.
    equations of motion exactly at every DOF, 2 % noise on every channel,
    for 1,000 and 10,000 samples.
 
-Only the identification (:func:`identifier.bias_compensated.solve_compensated`)
+Only the identification (:func:`identifier.least_squares.bias_compensated.solve_compensated`)
 is timed; peak memory is what tracemalloc sees allocated during it (the
 motion arrays themselves, 8 x samples x DOF floats, are listed apart).
 
@@ -35,7 +35,7 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from structbench.identifier.bias_compensated import solve_compensated  # noqa: E402
+from structbench.identifier.least_squares.bias_compensated import solve_compensated  # noqa: E402
 from structbench.identifier.least_squares import Motion  # noqa: E402
 from structbench.models import load_model  # noqa: E402
 from structbench.models.library import beam  # noqa: E402

@@ -35,7 +35,7 @@ from modal_synth import free_decays  # noqa: E402
 
 from structbench.identifier import modal  # noqa: E402
 from structbench.identifier.errors import IdentificationError  # noqa: E402
-from structbench.identifier.traces import Channel, Trace  # noqa: E402
+from structbench.identifier.io.traces import Channel, Trace  # noqa: E402
 
 NOISE = 0.02
 

@@ -27,8 +27,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from modal_synth import free_decays  # noqa: E402
 
-from structbench.identifier.mode_split import split_close_modes  # noqa: E402
-from structbench.identifier.ssi_poles import real_shapes  # noqa: E402
+from structbench.identifier.modal.close_pairs import split_close_modes  # noqa: E402
+from structbench.identifier.modal.ssi.poles import real_shapes  # noqa: E402
 
 DT, N, RATIO = 0.01, 10001, 0.02
 SHAPES = np.linalg.qr(np.random.default_rng(123).standard_normal((8, 3)))[0]

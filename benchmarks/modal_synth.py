@@ -15,7 +15,7 @@ import numpy as np
 import scipy.linalg as la
 from scipy.signal import lfilter
 
-from structbench.identifier.traces import Channel, Trace
+from structbench.identifier.io.traces import Channel, Trace
 
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 

@@ -1,20 +1,17 @@
-"""Identification methods that read trace files and a model description.
-Imports only structbench.models: never the harness, the FMU layer or truth.json.
+"""Identification methods that read trace files and a prior model, one
+sub-package per method. Imports only :mod:`structbench.models`: never the
+harness, the FMU layer or the truth.
 
-- :mod:`structbench.identifier.traces`: the trace reader (``read_trace``, ``read_traces``)
-- :mod:`structbench.identifier.least_squares`: chapter 3, time-domain least squares
-- :mod:`structbench.identifier.perturbation`: chapter 4, frequency-domain perturbation with pseudo-parameters
-- :mod:`structbench.identifier.rayleigh`: chapter 5, pseudo-Rayleigh quotient
-- :mod:`structbench.identifier.modal`: output-only / free-decay modes with damping by SSI-cov
-  (:mod:`structbench.identifier.ssi_design`, :mod:`structbench.identifier.ssi_covariance`,
-  :mod:`structbench.identifier.ssi_hankel`, :mod:`structbench.identifier.ssi_poles`,
-  :mod:`structbench.identifier.stabilisation`, :mod:`structbench.identifier.modal_uncertainty`); close pairs from two or more free decays by
-  :mod:`structbench.identifier.mode_split` (:mod:`structbench.identifier.close_pair`,
-  :mod:`structbench.identifier.rank_one_fit`, :mod:`structbench.identifier.free_decay_fit`,
-  :mod:`structbench.identifier.local_space`)
-- :mod:`structbench.identifier.results`: the result records and their JSON file
-- helpers: :mod:`structbench.identifier.integrate` (accelerations to motion), :mod:`structbench.identifier.harmonic`
-  (sinusoid fits, free-vibration frequencies)
+- :mod:`.io`: trace files in, result files out
+- :mod:`.least_squares`: chapter 3, element mass, damping and stiffness by
+  least squares on the equations of motion (the dissertation's ordinary least
+  squares and the bias-compensated estimator over every sample)
+- :mod:`.perturbation`: chapter 4, frequency-domain perturbation with
+  unmeasured responses as pseudo-parameters
+- :mod:`.rayleigh`: chapter 5, modes from a pseudo-Rayleigh quotient
+- :mod:`.modal`: modes with damping and standard errors by covariance-driven
+  SSI (:mod:`.modal.ssi`), close pairs from free decays
+  (:mod:`.modal.close_pairs`)
 """
 from .errors import IdentificationError
 

@@ -11,7 +11,7 @@ from structbench.cli import main
 from e2e_fixtures import derive, run
 from structbench.identifier import least_squares
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.traces import read_traces
+from structbench.identifier.io.traces import read_traces
 from structbench.models import load_model
 
 

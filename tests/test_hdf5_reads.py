@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from structbench.identifier import hdf5_reads
-from structbench.identifier.hdf5_reads import attributes, decoded, samples
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.hdf5_reads import attributes, decoded, samples
+from structbench.identifier.io.traces import read_trace
 from identify_synth import cantilever_trace
 
 STRINGS = {"utf8": "m/s^2 é∂", "bytes": b"rms", "fixed": np.bytes_(b"abc"),

@@ -11,7 +11,7 @@ import pytest
 
 from identify_synth import respond, write_trace
 from structbench.identifier.least_squares import identify
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 from structbench.models import load_model
 
 SHEAR_FRAME = Path(__file__).resolve().parents[1] / "docs" / "examples" / "shear-frame-3.toml"

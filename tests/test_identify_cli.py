@@ -9,8 +9,8 @@ import pytest
 
 from structbench.cli import main
 from structbench.identifier import least_squares, rayleigh
-from structbench.identifier.results import read_results
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.results import read_results
+from structbench.identifier.io.traces import read_trace
 from identify_synth import harmonic_force, respond, write_trace
 from structbench.models import load_model
 

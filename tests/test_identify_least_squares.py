@@ -6,7 +6,7 @@ import pytest
 
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.least_squares import identify
-from structbench.identifier.traces import read_trace, read_traces
+from structbench.identifier.io.traces import read_trace, read_traces
 from identify_synth import respond, write_trace
 from structbench.models import load_model
 

@@ -15,7 +15,7 @@ from modal_synth import modal_response
 from structbench.cli import main
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.modal import identify
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 from structbench.models import load_model
 
 BEAM_EXACT = (np.arange(1, 16) * np.pi / 10.0) ** 2  # omega_r = (r pi / L)^2, EI = m = 1, L = 10 m

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from modal_synth import free_decays
-from structbench.identifier.free_decay_fit import Group, basis, fit_poles, project
-from structbench.identifier.local_space import columns, local_space
-from structbench.identifier.mode_split import free_start, split_close_modes, split_free_decays
-from structbench.identifier.ssi_poles import real_shapes
-from structbench.identifier.traces import Trace
+from structbench.identifier.modal.close_pairs.free_decay_fit import Group, basis, fit_poles, project
+from structbench.identifier.modal.close_pairs.local_space import columns, local_space
+from structbench.identifier.modal.close_pairs import free_start, split_close_modes, split_free_decays
+from structbench.identifier.modal.ssi.poles import real_shapes
+from structbench.identifier.io.traces import Trace
 
 DT, N = 0.01, 10001  # 100 s
 SHAPES = np.linalg.qr(np.random.default_rng(123).standard_normal((8, 3)))[0]  # orthonormal, 8 channels

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.harmonic import Record, free_frequencies
+from structbench.identifier.perturbation.harmonic import Record, free_frequencies
 from structbench.identifier.perturbation import harmonic_tests, identify, responses
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 from identify_synth import harmonic_force, respond, write_trace
 from structbench.models import load_model
 

@@ -6,7 +6,7 @@ import pytest
 
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.rayleigh import cosine_functions, identify
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 from identify_synth import respond, write_trace
 from structbench.models import load_model
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.traces import read_trace, read_traces
+from structbench.identifier.io.traces import read_trace, read_traces
 from identify_synth import cantilever_trace
 
 

@@ -13,7 +13,7 @@ import pytest
 import pyuff
 
 from structbench.cli import main
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 
 G, INCH, LBF = 9.80665, 0.0254, 4.4482216152605
 

@@ -13,7 +13,7 @@ from sdypy_sep005.sep005 import assert_sep005
 
 import structbench as sb
 from e2e_fixtures import derive, run
-from structbench.identifier.traces import read_traces
+from structbench.identifier.io.traces import read_traces
 
 FORMATS = [("uff58", True), ("uff58", False), ("csv", True), ("sep005", True)]
 

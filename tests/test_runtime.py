@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from structbench.identifier.runtime import keep_freed_memory
+from structbench.identifier.modal.runtime import keep_freed_memory
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 SCRIPT = f"""
@@ -37,7 +37,7 @@ def _faults(setting: str) -> tuple[int, int]:
     """Minor page faults of the third identification of one record in a
     fresh process, and the number of modes it found (the first two set the
     heap's high-water mark: the first also makes the probe's spectrum that
-    :func:`identifier.ssi_hankel.leading_svd` keeps, and the second's
+    :func:`identifier.modal.ssi.hankel.leading_svd` keeps, and the second's
     arrays then lie around it)."""
     done = subprocess.run([sys.executable, "-c", SCRIPT, setting], capture_output=True, text=True, check=True)
     faults, modes = done.stdout.split()

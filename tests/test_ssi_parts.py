@@ -10,14 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from structbench.identifier.ssi_covariance import covariances, group_labels, is_free_decay, reference_channels
+from structbench.identifier.modal.ssi.covariance import covariances, group_labels, is_free_decay, reference_channels
 from scipy.signal import welch
 
-from structbench.identifier.ssi_design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
-from structbench.identifier import ssi_hankel
-from structbench.identifier.ssi_hankel import BlockHankel, leading_svd
-from structbench.identifier.ssi_poles import Poles, mac_matrix
-from structbench.identifier.stabilisation import Criteria, median, stable_flags
+from structbench.identifier.modal.ssi.design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
+from structbench.identifier.modal.ssi import hankel as ssi_hankel
+from structbench.identifier.modal.ssi.hankel import BlockHankel, leading_svd
+from structbench.identifier.modal.ssi.poles import Poles, mac_matrix
+from structbench.identifier.modal.stabilisation import Criteria, median, stable_flags
 
 
 def lag_by_lag(records, lags, references, groups):

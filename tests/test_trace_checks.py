@@ -9,7 +9,7 @@ import pytest
 
 from structbench.cli import main
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.traces import read_trace
 from identify_synth import cantilever_trace
 
 CHANNEL = "channels/displacement_7_w"

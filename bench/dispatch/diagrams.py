@@ -2,7 +2,7 @@
 results file, ``results/<stem>-stabilisation-<run>.png`` (matplotlib, Agg).
 
 Every pole of every model order is drawn at (frequency rad/s, order): grey
-when unstable, blue when stable (:mod:`structbench.identifier.stabilisation`);
+when unstable, blue when stable (:mod:`structbench.identifier.modal.stabilisation`);
 the selected modes are the vertical lines.
 """
 from __future__ import annotations

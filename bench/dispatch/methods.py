@@ -1,9 +1,9 @@
 """The identification methods by name, with their options and defaults.
 
 A :class:`Method` wraps an identifier's ``identify(traces, model, **options)``
-(``traces``: the :class:`~structbench.identifier.traces.Trace` records of one
+(``traces``: the :class:`~structbench.identifier.io.traces.Trace` records of one
 run; ``model``: the model with the unknown parameters, or None) returning an
-:class:`~structbench.identifier.results.Identification`.
+:class:`~structbench.identifier.io.results.Identification`.
 
 Besides the built-ins, every entry point of the group
 ``structbench.identifiers`` is a method (docs/plugins.md): its name is the
@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any
 
-from structbench.identifier import least_squares, modal, mode_split, perturbation, rayleigh
+from structbench.identifier import least_squares, modal, perturbation, rayleigh
+from structbench.identifier.modal import close_pairs
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.results import Identification
+from structbench.identifier.io.results import Identification
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
             "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
-           {"quantity": modal.QUANTITIES, "refine": mode_split.REFINE, "uncertainty": modal.UNCERTAINTY},
+           {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY},
            model="optional"),
 )}
 

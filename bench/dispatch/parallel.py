@@ -23,8 +23,8 @@ from typing import Any
 from threadpoolctl import threadpool_limits
 
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.results import Identification
-from structbench.identifier.traces import read_trace
+from structbench.identifier.io.results import Identification
+from structbench.identifier.io.traces import read_trace
 from structbench.models import Model
 
 from .methods import Method, method

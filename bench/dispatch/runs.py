@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from structbench.identifier.errors import IdentificationError
-from structbench.identifier.results import result_path, results_document, write_results
-from structbench.identifier.traces import Trace, TraceInfo, read_infos
+from structbench.identifier.io.results import result_path, results_document, write_results
+from structbench.identifier.io.traces import Trace, TraceInfo, read_infos
 from structbench.models import STRUCTURES, Model, ModelError, load_model
 
 from .diagrams import write_diagrams

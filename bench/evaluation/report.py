@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from structbench.identifier.results import read_results
+from structbench.identifier.io.results import read_results
 from structbench.models import load_model
 
 from . import beyond_modal, plots

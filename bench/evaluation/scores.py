@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from structbench.identifier.results import read_results
+from structbench.identifier.io.results import read_results
 from structbench.models.errors import UserError
 
 from .metrics import frequency_error_pct, mac, normalized_rms, relative_errors

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from structbench.identifier.json_checks import Doc, load_json
+from structbench.identifier.io.json_checks import Doc, load_json
 
 
 def _mode_shapes(doc: Doc) -> None:

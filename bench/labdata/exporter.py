@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from structbench.identifier.traces import Channel, Trace, read_traces
+from structbench.identifier.io.traces import Channel, Trace, read_traces
 from structbench.models.errors import UserError
 
 from .csv_files import write_csv

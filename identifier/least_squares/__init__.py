@@ -8,18 +8,18 @@ linear in the element parameters: ``A(t_k) p = F(t_k)`` with columns
     every sample of every trace; the noise of every channel (forces,
     accelerations, velocities, displacements) inside the regression is
     compensated, noise-weighted, with sandwich standard errors
-    (:mod:`identifier.bias_compensated`). Noise levels are the ones the
+    (:mod:`identifier.least_squares.bias_compensated`). Noise levels are the ones the
     channels declare; channels that declare none get theirs estimated from
-    the data (:mod:`identifier.noise_levels`; ``details["noise"]`` says so).
+    the data (:mod:`identifier.least_squares.noise_levels`; ``details["noise"]`` says so).
 ``ols``
     the dissertation's set-up: plain or noise-weighted least squares at
-    ``t_0 + interval k``, k = 1..samples (:mod:`identifier.ols`); biased
+    ``t_0 + interval k``, k = 1..samples (:mod:`identifier.least_squares.ols`); biased
     when the accelerations are noisy (errors in variables).
 
 ``samples`` (with ``interval``) picks sample times for either estimator;
 None means every sample. Displacements and velocities are the measured
 channels when every DOF has one (``integration="auto"``), else integrated
-from the accelerations (:mod:`identifier.integrate`; the structure must
+from the accelerations (:mod:`identifier.least_squares.integrate`; the structure must
 start at rest); the integrated ones carry the acceleration noise as a
 random walk, ``sigma_v = sigma_a sqrt(dt t)``, ``sigma_u = sigma_a sqrt(dt t^3/3)``
 (correlation between sample times neglected).
@@ -38,13 +38,13 @@ import numpy as np
 from structbench.models import ModelError, Structure
 
 from .bias_compensated import solve_compensated
-from .errors import IdentificationError
+from ..errors import IdentificationError
 from .estimate import Estimate
 from .integrate import METHODS, integrate
 from .noise_levels import estimate_sigma
 from .ols import WEIGHTINGS, solve
-from .results import Identification, ParameterEstimate
-from .traces import Channel, Trace
+from ..io.results import Identification, ParameterEstimate
+from ..io.traces import Channel, Trace
 
 RCOND = 1e-7
 INTEGRATIONS = ("auto",) + METHODS

@@ -14,7 +14,7 @@ sensor noise: the equation error at ``t_k`` has covariance
 plain least squares); dense whitening up to :data:`DENSE_DOF` DOF (batched
 Cholesky over the sample times), diagonal beyond. Standard errors are
 ``s^2 (B^T B)^-1``: they ignore the noise inside ``B`` (errors in
-variables), which biases the estimate; :mod:`identifier.bias_compensated`
+variables), which biases the estimate; :mod:`identifier.least_squares.bias_compensated`
 removes that bias.
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ import scipy.sparse.linalg as sla
 
 from structbench.models import Structure
 
-from .errors import IdentificationError
+from ..errors import IdentificationError
 from .estimate import Estimate
 from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
 

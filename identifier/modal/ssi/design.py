@@ -48,8 +48,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.fft import rfftfreq
 from scipy.signal import get_window
 
-from .runtime import rfft
-from .ssi_covariance import Covariances
+from ..runtime import rfft
+from .covariance import Covariances
 
 ROW_BUDGET = 4000  # block rows x row channels
 ROW_CHANNELS = 20  # at most this many (principal) row channels, as many as the references

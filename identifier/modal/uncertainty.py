@@ -2,19 +2,19 @@
 delete-one-group jackknife.
 
 The covariance sums are kept per sample group (``G`` groups,
-:mod:`identifier.ssi_covariance`); replicate ``g`` repeats the identification
+:mod:`identifier.modal.ssi.covariance`); replicate ``g`` repeats the identification
 from every group but ``g``. Its subspace is one step of subspace iteration
 from the full data's leading left singular vectors ``U``: ``Q_g = H_g H_g^T
 U R^-1`` with ``R`` upper triangular (see :class:`Replicates`), so that its first
 ``n`` columns span the replicate's subspace of order ``n``; two Hankel
-products by FFT (:mod:`identifier.ssi_hankel`, the FFT of ``U`` shared) and a
+products by FFT (:mod:`identifier.modal.ssi.hankel`, the FFT of ``U`` shared) and a
 triangular solve per replicate, two replicates at a time, in the background
 (:class:`Replicates`). (The cheaper first-order subspace
 ``U + (I - U U^T) E_g V S^-1`` fails for free decays: a mode that one group
 holds almost alone loses nearly all of its singular value when that group
 is left out, far outside first order, and the errors came out 2-4 times too
 small.) At order ``n`` the basis ``Q_n T^-1``, ``T = U_n^T Q_n``, is the one
-nearest ``U_n``; its ``M_g = T G_g^-1 K_g T^-1`` (:mod:`identifier.ssi_poles`)
+nearest ``U_n``; its ``M_g = T G_g^-1 K_g T^-1`` (:mod:`identifier.modal.ssi.poles`)
 is near the full data's ``M = Psi diag(mu) Psi^-1``, and with ``W = Psi^-1
 (M_g - M) Psi`` each pole ``k`` of a mode moves, to first order, to
 
@@ -53,9 +53,9 @@ import numpy as np
 import scipy.linalg as la
 from scipy.linalg.blas import dsyrk, dtrsm
 
-from .ssi_covariance import Covariances, project
-from .ssi_hankel import BlockHankel
-from .ssi_poles import Poles
+from .ssi.covariance import Covariances, project
+from .ssi.hankel import BlockHankel
+from .ssi.poles import Poles
 
 Target = tuple[tuple[tuple[int, int], ...], float]  # the mode's stable poles (order, index), its omega rad/s
 

@@ -1,7 +1,7 @@
 """Poles and mode shapes of SSI-cov at a range of model orders.
 
 With the SVD ``H = U S V^T`` of the block Hankel matrix
-(:mod:`identifier.ssi_hankel`), order ``n`` keeps the ``n``
+(:mod:`identifier.modal.ssi.hankel`), order ``n`` keeps the ``n``
 largest singular values: ``O_n = U_n S_n^(1/2)``, ``C = O_n[:m]`` and ``A``
 from the shift structure ``O_n[m:] = O_n[:-m] A`` (least squares). The
 eigenvalues ``mu`` of ``A`` give the continuous poles ``s = ln(mu) / dt``,

@@ -14,7 +14,7 @@ import h5py
 from h5py import h5d, h5o
 import numpy as np
 
-from .errors import IdentificationError
+from ..errors import IdentificationError
 from .hdf5_reads import attributes, samples
 
 FORMAT = "structbench-trace"

@@ -2,7 +2,7 @@
 
 Equations. With ``theta = [p; -1]`` the equation error of sample ``k`` at DOF
 ``r`` is ``e_kr = (M a_k + C v_k + K u_k - f_k)_r = Y_kr theta``
-(:mod:`identifier.regression`). Plain least squares solves
+(:mod:`identifier.least_squares.regression`). Plain least squares solves
 ``G theta = 0`` (rows of the unknowns) with ``G = Y^T Y``; when the channels
 in ``Y`` are noisy, ``E[G] = G_0 + D`` with ``D = sum W^T diag(sigma^2) W``
 the noise Gram matrix, so plain least squares is biased and no number of
@@ -15,9 +15,9 @@ With ``weighting="noise"`` the equations are whitened by the noise at the
 previous estimate (re-weighted :data:`REWEIGHTINGS` times after the
 unweighted solution); ``G`` and ``D`` then carry the weights:
 
-* up to :data:`identifier.whitened.DENSE_DOF` DOF, by the inverse of the
+* up to :data:`identifier.least_squares.whitened.DENSE_DOF` DOF, by the inverse of the
   DOF-coupled covariance of one sample's equation errors,
-  ``Omega = (Mt^T diag(sigma^2) Mt)^-1`` (:mod:`identifier.whitened`): this
+  ``Omega = (Mt^T diag(sigma^2) Mt)^-1`` (:mod:`identifier.least_squares.whitened`): this
   is what makes noisy displacements (entering through ``K``) harmless;
 * beyond, one weight per DOF row, ``w_r = 1 / sqrt(mean_k var(e_kr))``.
 
@@ -132,7 +132,7 @@ class _RowWeights:
 
 class _Whitening:
     """Full whitening with the DOF-coupled equation-error covariance
-    (:mod:`identifier.whitened`), up to :data:`whitened.DENSE_DOF` DOF."""
+    (:mod:`identifier.least_squares.whitened`), up to :data:`whitened.DENSE_DOF` DOF."""
 
     label = "noise (full DOF covariance)"
 

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .ssi_poles import Poles, mac_matrix
+from .ssi.poles import Poles, mac_matrix
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ class Mode:
 def stable_flags(poles: list[Poles], criteria: Criteria) -> list[np.ndarray]:
     """Per order a boolean array (k,) marking the stable poles (the lowest
     order has none). Every pair of neighbouring orders at once (shapes of
-    unit norm, as :func:`identifier.ssi_poles.poles_at` gives them): the
+    unit norm, as :func:`identifier.modal.ssi.poles.poles_at` gives them): the
     orders' poles padded to the largest count (NaN frequencies and zero
     shapes never pass)."""
     counts = np.array([p.omega.size for p in poles])

@@ -18,7 +18,7 @@ sensor and force channels are fitted by least squares with the forced
 component at ``omega`` plus free-vibration components, which never decay in
 an undamped structure. Their frequencies are the structure's natural
 frequencies as estimated from the records themselves
-(:func:`identifier.harmonic.free_frequencies`, seeded by the postulated
+(:func:`identifier.perturbation.harmonic.free_frequencies`, seeded by the postulated
 model; traces of the run without ``omega``, an impulse test say, contribute
 their free response after the last force sample), falling back to the
 current model's where the records show no clear peak; components the record cannot separate from ``omega`` (within half a
@@ -58,10 +58,10 @@ import scipy.linalg as la
 
 from structbench.models import ModelError, Structure
 
-from .errors import IdentificationError
+from ..errors import IdentificationError
 from .harmonic import Record, amplitudes, free_frequencies, resolvable
-from .results import Identification, ParameterEstimate
-from .traces import Channel, Trace
+from ..io.results import Identification, ParameterEstimate
+from ..io.traces import Channel, Trace
 
 RCOND = 1e-10
 ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}

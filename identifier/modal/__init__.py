@@ -3,25 +3,25 @@ stochastic subspace identification (SSI-cov) with automatic order selection.
 
 Steps (each its own module):
 1. lagged output covariances ``R_l = <y_{k+l} y_ref,k^T>``, l >= 1, summed per
-   sample group by FFT (:mod:`identifier.ssi_covariance`); white sensor noise
+   sample group by FFT (:mod:`identifier.modal.ssi.covariance`); white sensor noise
    only enters ``R_0``, which is not used. Lags 1 .. p + q - 1 with ``p`` block
    rows and ``q`` block columns chosen from the data
-   (:mod:`identifier.ssi_design`: the record length, free decay or not, the
+   (:mod:`identifier.modal.ssi.design`: the record length, free decay or not, the
    lowest frequency the response carries, the channel count; in a random
    response no lag past those whose covariances stand out of their
    estimation noise);
 2. block Hankel matrix of the covariances, on at most 20 principal row
    channels; its leading singular vectors by subspace iteration with products
-   by FFT (:mod:`identifier.ssi_hankel`), and the poles ``s = ln(mu(A)) / dt``
-   of every model order 2, 4, ..., ``max_order`` (:mod:`identifier.ssi_poles`):
+   by FFT (:mod:`identifier.modal.ssi.hankel`), and the poles ``s = ln(mu(A)) / dt``
+   of every model order 2, 4, ..., ``max_order`` (:mod:`identifier.modal.ssi.poles`):
    ``omega = |s|`` rad/s, ``zeta = -Re s / |s|``, complex shapes ``C psi`` on
    every channel (``C`` from the first block row of all channels,
    ``[R_1 .. R_q] V S^-1``);
 3. stabilisation across orders and clustering of the stable poles into modes,
-   estimated as medians over all their stable poles (:mod:`identifier.stabilisation`);
+   estimated as medians over all their stable poles (:mod:`identifier.modal.stabilisation`);
    a mode whose observability vectors do not follow the geometric sequence
    ``mu^i`` of their eigenvalue over the block rows (temporal coherence,
-   :func:`identifier.ssi_poles.coherence`, below ``COHERENCE``) is a pole
+   :func:`identifier.modal.ssi.poles.coherence`, below ``COHERENCE``) is a pole
    of the covariance estimates' own noise and dropped: such poles become
    stable at orders far past the structure's (a response that dies out
    early in a long record, few modes on many sensors) and never at
@@ -34,7 +34,7 @@ Steps (each its own module):
    decide, lost one such mode of ``benchmarks/modal_fuzz.py`` at 0.35 and
    kept another at 0.50 only by the ``STEADY`` exemption);
 4. standard errors of every frequency and damping ratio by the delete-one-group
-   jackknife over the sample groups (:mod:`identifier.modal_uncertainty`); a
+   jackknife over the sample groups (:mod:`identifier.modal.uncertainty`); a
    mode that more than one replicate does not find again is a noise mode and
    dropped (a mode missed by one replicate is kept without stated errors).
    The replicates' subspaces are computed in the background while steps 2-3
@@ -61,21 +61,21 @@ import numpy as np
 
 from structbench.models import Model
 
-from .errors import IdentificationError
-from .modal_uncertainty import Replicates, jackknife
-from .mode_split import split_free_decays
-from .results import Identification
+from ..errors import IdentificationError
+from .uncertainty import Replicates, jackknife
+from .close_pairs import split_free_decays
+from ..io.results import Identification
 from .runtime import keep_freed_memory, one_blas_thread
-from .ssi_covariance import covariances, is_free_decay, project, reference_channels, row_projection
-from .ssi_design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
-from .ssi_hankel import BlockHankel, leading_svd
-from .ssi_poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
+from .ssi.covariance import covariances, is_free_decay, project, reference_channels, row_projection
+from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
+from .ssi.hankel import BlockHankel, leading_svd
+from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
-from .traces import Channel, Trace
+from ..io.traces import Channel, Trace
 
 QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
 UNCERTAINTY = ("jackknife", "off")
-COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.ssi_poles.coherence`)
+COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
 COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there
 STEADY = 0.8  # ... unless it is stable at this share of the orders or more
 
@@ -118,16 +118,16 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     it only names the structure). ``drop_unrepeated``: report only modes that
     all jackknife replicates but at most one find again (spurious noise modes
     do not). ``refine``: ``auto`` fits free responses whole to split close
-    pairs (:mod:`identifier.mode_split`), ``off`` does not. ``uncertainty``:
+    pairs (:mod:`identifier.modal.close_pairs`), ``off`` does not. ``uncertainty``:
     ``off`` skips the jackknife (about half the time): no standard errors
     (NaN) and no check that replicates find each mode again. The first
     call raises glibc's malloc thresholds for the process
-    (:func:`identifier.runtime.keep_freed_memory`)."""
+    (:func:`identifier.modal.runtime.keep_freed_memory`)."""
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
     records, channels, dt = sensor_records(traces, quantity)
-    keep_freed_memory()  # glibc: no page faults on every Hankel product (:mod:`identifier.runtime`)
+    keep_freed_memory()  # glibc: no page faults on every Hankel product (:mod:`identifier.modal.runtime`)
     m = records[0].shape[0]
     r = min(references, m)
     if (block_rows is not None and block_rows < 2) or max_order < 2 or segments < 2 or references < 1:

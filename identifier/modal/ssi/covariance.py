@@ -15,12 +15,12 @@ adds variance but no bias. The block Hankel matrix
     H = [[R_1, R_2, ..., R_q], [R_2, ..., R_{q+1}], ..., [R_p, ..., R_{p+q-1}]]
 
 (p m x q r) factors as ``O Gamma`` with the observability matrix ``O = [C; C A;
-...; C A^(p-1)]``, which is what :mod:`identifier.ssi_poles` extracts
-(products with ``H`` by FFT: :mod:`identifier.ssi_hankel`).
+...; C A^(p-1)]``, which is what :mod:`identifier.modal.ssi.poles` extracts
+(products with ``H`` by FFT: :mod:`identifier.modal.ssi.hankel`).
 
 The sums are kept per group of samples (the sample index ``k`` of the
 reference), so that the identification can be repeated with one group left
-out (jackknife, :mod:`identifier.modal_uncertainty`): ``groups`` contiguous
+out (jackknife, :mod:`identifier.modal.uncertainty`): ``groups`` contiguous
 segments for stationary records, or interleaved blocks of L / 2 samples
 (each group then spans the whole record) for free decays, whose signal is
 concentrated at the start. Channels are divided by their RMS first so that
@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
-from .runtime import irfft, rfft
+from ..runtime import irfft, rfft
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import numpy as np
 
 from structbench.models import Structure
 
-from .errors import IdentificationError
+from ..errors import IdentificationError
 
 
 def not_identifiable(null: np.ndarray, labels: list[str]) -> list[str]:

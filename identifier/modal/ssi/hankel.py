@@ -26,7 +26,7 @@ import numpy as np
 import scipy.fft as sfft
 import scipy.linalg as la
 
-from .runtime import irfft, rfft
+from ..runtime import irfft, rfft
 
 
 class BlockHankel:

@@ -16,7 +16,7 @@ for the raw channels ``x_k`` (4 n,):
 
 (``o``: element-wise product over the (row, column) pairs ``p``, ``q``; ``P``
 maps pairs to columns). ``X^T X`` (4 n, 4 n) is accumulated in the pass of
-:func:`identifier.regression.moments`: time
+:func:`identifier.least_squares.regression.moments`: time
 O(m n^2), memory O(n^2), hence the DOF limit. The per-sample estimating
 terms for the sandwich standard errors are
 

@@ -45,9 +45,9 @@ import scipy.linalg as la
 
 from structbench.models import ModalModel, Model, ModelError, Structure
 
-from .errors import IdentificationError
-from .results import Identification
-from .traces import Channel, Trace
+from ..errors import IdentificationError
+from ..io.results import Identification
+from ..io.traces import Channel, Trace
 
 VARIANTS = ("auto", "displacement", "velocity")
 WINDOWS = ("hann", "rectangular")

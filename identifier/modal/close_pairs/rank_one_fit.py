@@ -4,7 +4,7 @@ In free response every (non-repeated) mode ``j`` moves one shape in every
 record: its residues are ``c_rj = phi_j p_rj`` with the shape ``phi_j`` (m,),
 real for a normal mode (classical damping), and one complex participation
 ``p_rj`` per record (the initial conditions' projection on the mode, with
-their phase). For ``p`` free modes the model of :mod:`identifier.free_decay_fit`
+their phase). For ``p`` free modes the model of :mod:`identifier.modal.close_pairs.free_decay_fit`
 becomes, channel ``i`` of record ``r``,
 
     y_ri(t) = sum_a phi_ai Re(p_ra e^(lambda_a t)) + (fixed poles, offset, drift) + e_ri(t).
@@ -13,7 +13,7 @@ Nonlinear parameters: each free pole ``(sigma_a, omega_d,a)`` and its
 participations (``p_ra = 1`` at one reference record, so ``2 (R - 1)`` reals);
 the shapes and the fixed poles' residues (free per record) are linear. The
 poles stay near one centre, so each group of records is its reduced
-:class:`identifier.local_space.Local` (``V^T Z``, the fixed poles projected
+:class:`identifier.modal.close_pairs.local_space.Local` (``V^T Z``, the fixed poles projected
 out). With ``E = V^T [Re e^(lambda_a t), Im e^(lambda_a t)]_a`` (k x 2p),
 record ``r`` has the columns ``W_r = E M_r`` (``M_r`` (2p x p): ``(Re p_ra,
 -Im p_ra)`` in mode ``a``'s rows) and channel ``i`` (weighted by ``1 / s_ri``)
@@ -27,7 +27,7 @@ parameters; the residual sum of squares adds the constant part outside ``V``;
 the covariance is ``s^2 (J^T J)^-1`` with ``s^2 = f / dof``.
 
 Two poles of a close pair are separated by this structure: their first-order
-sum ``(c_r + d_r t) e^(lambda t)`` (:mod:`identifier.close_pair`) fixes
+sum ``(c_r + d_r t) e^(lambda t)`` (:mod:`identifier.modal.close_pairs.pair`) fixes
 ``delta`` only when the residues are rank one over at least two records that
 move the pair in different proportions.
 Fails for repeated roots (their residues are not rank one), for complex

@@ -5,13 +5,13 @@ SSI-cov uses lags of a few seconds, so two modes whose poles differ by
 ``delta = lambda_a - lambda_b`` with ``|delta| T << 1`` over the record length
 ``T`` look like one (or come out as two with mixed shapes). Over the whole
 record the pair shows as a ``t e^(lambda t)`` term that one pole cannot give
-(:mod:`identifier.close_pair`). Steps, at level ``alpha`` split over the
+(:mod:`identifier.modal.close_pairs.pair`). Steps, at level ``alpha`` split over the
 ``K`` modes (Bonferroni, ``alpha / K`` each; ``K`` the reported modes and
 those step 2 reports):
 
 1. Each record's channels are divided by their noise level ``s_ri``: the RMS
    of the residual of the fit with the SSI poles and their ``t e^(lambda t)``
-   terms (:mod:`identifier.free_decay_fit`; these terms take up the poles'
+   terms (:mod:`identifier.modal.close_pairs.free_decay_fit`; these terms take up the poles'
    errors and close pairs; at least ``FLOOR`` x the channel's RMS, so that on
    noise-free records the tiny misfit of the SSI poles does not count).
 2. Modes SSI did not report but that residual holds (a peak of the summed
@@ -27,16 +27,16 @@ those step 2 reports):
    reported): split if it passes step 4, else as one mode fitted with
    residues of rank one across the records.
 3. Candidates: a reported mode whose residual holds a ``t e^(lambda t)`` term
-   (score test, :func:`identifier.close_pair.score_statistics`, at level
+   (score test, :func:`identifier.modal.close_pairs.pair.score_statistics`, at level
    ``alpha``: it only picks candidates, the tests of step 4 decide), two
    reported modes with ``|delta omega| T < RESOLVED``, and the modes step 2 reports.
 4. A candidate is split (or its reported pair refitted) only if the records
    move it in different proportions: the residues ``[c_1 ... c_R]`` of its
    pole (with a ``t e^(lambda t)`` term) are not rank one
-   (:func:`identifier.close_pair.rank_one_misfit` above its ``chi^2`` quantile).
-   From the eigenvalues of ``D^+ C`` (:func:`identifier.close_pair.pencil`) it
+   (:func:`identifier.modal.close_pairs.pair.rank_one_misfit` above its ``chi^2`` quantile).
+   From the eigenvalues of ``D^+ C`` (:func:`identifier.modal.close_pairs.pair.pencil`) it
    is then fitted as one mode and as two, each with residues of rank one across
-   the records (:mod:`identifier.rank_one_fit`, poles within ``RESOLVED / T``
+   the records (:mod:`identifier.modal.close_pairs.rank_one_fit`, poles within ``RESOLVED / T``
    of its pole, the other poles held). The pair is kept when (a) the
    likelihood ratio ``(f_1 - f_2) / s^2`` exceeds the quantile of
    ``chi^2(2 + m + 2 (R - 1))`` (the second mode's pole, shape, participations),
@@ -66,13 +66,13 @@ import numpy as np
 import scipy.linalg as la
 from scipy.stats import chi2
 
-from .errors import IdentificationError
-from .close_pair import first_order, pencil, rank_one_misfit, score_statistics
+from ...errors import IdentificationError
+from .pair import first_order, pencil, rank_one_misfit, score_statistics
 from .free_decay_fit import Group, Projection, basis, fit_poles, omega_zeta, project
 from .local_space import REACH, local_space
 from .rank_one_fit import Layout, ModeFit, fit_modes
-from .runtime import one_blas_thread
-from .traces import Trace
+from ..runtime import one_blas_thread
+from ...io.traces import Trace
 
 ALPHA = 0.01
 FLOOR = 1e-6  # least noise standard deviation, x channel RMS
