@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from structbench.evaluation.metrics import frequency_error_pct, mac, normalized_rms, relative_errors
+from structbench.evaluation.metrics import frequency_error_pct, normalized_rms, relative_errors
+from structbench.models.mac import mac
 
 
 def test_normalized_rms_of_the_ch4_postulated_case1_model():

@@ -16,7 +16,8 @@ from scipy.signal import welch
 from structbench.identifier.modal.ssi.design import ROW_BUDGET, block_sizes, lowest_frequency, welch_power
 from structbench.identifier.modal.ssi import hankel as ssi_hankel
 from structbench.identifier.modal.ssi.hankel import BlockHankel, leading_svd
-from structbench.identifier.modal.ssi.poles import Poles, mac_matrix
+from structbench.identifier.modal.ssi.poles import Poles
+from structbench.models.mac import mac
 from structbench.identifier.modal.stabilisation import Criteria, median, stable_flags
 
 
@@ -166,7 +167,7 @@ def test_stable_flags_are_the_pairwise_definition():
     for prev, cur in zip(poles, poles[1:]):
         ok = np.array([any(abs(w - v) / w < criteria.freq_tol
                            and abs(z - y) < criteria.zeta_tol * (abs(z) + 0.002)
-                           and mac_matrix(cur.shapes[:, [i]], prev.shapes[:, [j]])[0, 0] > criteria.mac_min
+                           and mac(cur.shapes[:, [i]], prev.shapes[:, [j]])[0, 0] > criteria.mac_min
                            for j, (v, y) in enumerate(zip(prev.omega, prev.zeta)))
                        and -0.02 < z < criteria.zeta_max for i, (w, z) in enumerate(zip(cur.omega, cur.zeta))],
                       dtype=bool)

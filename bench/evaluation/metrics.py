@@ -27,11 +27,3 @@ def frequency_error_pct(omega_est: np.ndarray, omega_true: np.ndarray) -> np.nda
     est, true = np.asarray(omega_est, dtype=float), np.asarray(omega_true, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(true != 0, 100.0 * (est - true) / true, np.where(est == 0, 0.0, np.inf))
-
-
-def mac(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
-    """Modal assurance criterion between the columns of two shape matrices
-    (n_sensors, n_a) and (n_sensors, n_b); returns (n_a, n_b) in [0, 1]."""
-    a, b = np.asarray(phi_a), np.asarray(phi_b)
-    cross = np.abs(a.conj().T @ b) ** 2
-    return cross / np.outer(np.sum(np.abs(a) ** 2, axis=0), np.sum(np.abs(b) ** 2, axis=0))

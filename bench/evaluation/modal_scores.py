@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .metrics import mac
+from structbench.models.mac import mac
 
 PAIR_TOL = 0.05
 MAC_PAIR = 0.5

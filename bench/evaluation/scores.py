@@ -16,7 +16,9 @@ import numpy as np
 from structbench.identifier.io.results import read_results
 from structbench.models.errors import UserError
 
-from .metrics import frequency_error_pct, mac, normalized_rms, relative_errors
+from structbench.models.mac import mac
+
+from .metrics import frequency_error_pct, normalized_rms, relative_errors
 from .truth_checks import read_truth
 from .modal_scores import modal_scores, modal_summary
 

@@ -48,7 +48,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .ssi.poles import Poles, mac_matrix
+from structbench.models.mac import mac
+
+from .ssi.poles import Poles
 
 
 @dataclass(frozen=True)
@@ -182,7 +184,7 @@ def _merge(modes: list[Mode], poles: list[Poles], criteria: Criteria) -> list[Mo
     if not modes:
         return modes
     shapes = np.column_stack([_pole(poles, md).shapes[:, md.index] for md in modes])
-    same = mac_matrix(shapes, shapes) > criteria.mac_min
+    same = mac(shapes, shapes) > criteria.mac_min
     omega = np.array([md.omega for md in modes])
     support = np.array([md.support for md in modes])
     kept: list[int] = []

@@ -53,6 +53,8 @@ import numpy as np
 import scipy.linalg as la
 from scipy.linalg.blas import dsyrk, dtrsm
 
+from structbench.models.mac import paired_mac
+
 from .ssi.covariance import Covariances, project
 from .ssi.hankel import BlockHankel
 from .ssi.poles import Poles
@@ -87,21 +89,17 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     mix = W / gap
     base = top[:, :, :n] @ np.linalg.solve(T, poles.vectors)  # (G, rows, n): replicate shapes of every psi_i
     shape = U[:rows, :n] @ psi
-    mac = _mac(shape, base[:, :, cols] + base @ mix)
+    mac = paired_mac(shape, base[:, :, cols] + base @ mix)
     strong = (np.abs(mix) > 0.3) & (poles.mu.imag > 0)[None, :, None]
     for g, c in zip(*np.nonzero(strong.any(axis=1))):
         group = np.union1d(cols[c], np.flatnonzero(strong[g, :, c]))
         lam, y = np.linalg.eig(inverse[group] @ M[g] @ poles.vectors[:, group])
-        fits = _mac(shape[:, [c]], base[g][:, group] @ y)
+        fits = paired_mac(shape[:, [c]], base[g][:, group] @ y)
         best = int(np.argmax(fits))
         mu[g, c], mac[g, c] = lam[best], fits[best]
     s = np.log(mu) / dt
     return np.abs(s), -s.real / np.abs(s), mac
 
-
-def _mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """MAC between matching columns of complex shapes ``a`` (m, t) and ``b`` (..., m, t)."""
-    return np.abs(np.sum(a.conj() * b, -2)) ** 2 / np.sum(np.abs(a) ** 2, -2) / np.sum(np.abs(b) ** 2, -2)
 
 
 class Replicates:

@@ -125,11 +125,6 @@ def pole_columns(poles: dict[int, Poles], pairs: list[tuple[int, int]], size: in
     return vectors, mu
 
 
-def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """MAC between the columns of two complex shape matrices, (k_a, k_b)."""
-    cross = np.abs(a.conj().T @ b) ** 2
-    return cross / np.outer(np.sum(np.abs(a) ** 2, axis=0), np.sum(np.abs(b) ** 2, axis=0))
-
 
 def mpc(shapes: np.ndarray) -> np.ndarray:
     """Modal phase collinearity (k,) of complex shapes (m, k): 1 for a real
