@@ -56,7 +56,7 @@ def _var(name: str, causality: str, variability: str, unit: str, description: st
 
 
 # variable prefix -> (quantity, unit) on a translation and on a rotation
-QUANTITIES = {
+PREFIXES = {
     "F": (("force", "N"), ("moment", "N.m")),
     "u": (("displacement", "m"), ("rotation", "rad")),
     "v": (("velocity", "m/s"), ("angular velocity", "rad/s")),
@@ -67,10 +67,10 @@ QUANTITIES = {
 def _dof_variables(dofs: list[tuple[int, str]], where: list[str], prefix: str, causality: str,
                    variability: str, initial: bool = False) -> list[dict[str, Any]]:
     """One variable per DOF: ``{prefix}_{node}_{dir}`` (``{prefix}0_...`` for
-    an initial condition), unit and description by :data:`QUANTITIES`."""
+    an initial condition), unit and description by :data:`PREFIXES`."""
     out = []
     for (node, d), w in zip(dofs, where):
-        qty, unit = QUANTITIES[prefix][d in ROTATIONS]
+        qty, unit = PREFIXES[prefix][d in ROTATIONS]
         name = dof_variable(f"{prefix}0" if initial else prefix, node, d)
         out.append(_var(name, causality, variability, unit, f"{'initial ' if initial else ''}{qty} at {w}"))
     return out

@@ -76,7 +76,7 @@ def test_harness_and_identification_keep_to_their_side():
 
 
 def test_labdata_writes_and_reads_traces_only_through_the_trace_modules():
-    allowed = ("structbench.labdata", "structbench.harness.trace_writer", "structbench.harness.channels",
+    allowed = ("structbench.labdata", "structbench.harness.trace_writer", "structbench.models.channels",
                "structbench.identifier.io.traces", "structbench.models.errors")
     bad = {str(p.relative_to(ROOT)): sorted(n for n in imports(p) if not under(n, *allowed))
            for p in sources("bench/labdata")}

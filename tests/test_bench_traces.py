@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
-from structbench.harness.channels import Channel
+from structbench.models.channels import Channel
 from structbench.cli import main
 from structbench import run_campaign
 from structbench.harness.trace_writer import ChannelData, Trace, software, write_trace

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .channels import Channel
+from structbench.models.channels import Channel
+
 from .excitation import Excitation, Harmonic, force_dofs, forces, kind_label, spec
 from .fmu_setup import Bench
 from .noise import noisy_channels

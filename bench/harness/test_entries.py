@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING, Any
 
 from structbench.models import ModalModel, Model
 from structbench.models.errors import UserError
+from structbench.models.channels import QUANTITIES, Channel
 
-from .channels import QUANTITIES, Channel
 from .excitation import (Excitation, Harmonic, Impulse, Initial, RandomForce, force_dofs, is_force, perturb,
                          realisations, varies)
 from .external import VariableMap

@@ -11,10 +11,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .channels import Channel
+from structbench.models.channels import TRACE_FORMAT, Channel
+
 from .fmu_setup import Bench
 from .test_entries import TestSpec
-from .trace_writer import FORMAT
 
 
 def _same(value: object, expected: object) -> bool:
@@ -33,7 +33,7 @@ def is_trace_of(path: Path, bench: Bench, test: TestSpec, repetition: int) -> bo
     channels and commanded forces, each (n_samples,) float64 and finite."""
     try:
         with h5py.File(path, "r") as f:
-            attrs = {"format": FORMAT, "campaign": bench.campaign, "test": test.name, "repetition": repetition,
+            attrs = {"format": TRACE_FORMAT, "campaign": bench.campaign, "test": test.name, "repetition": repetition,
                      "seed": test.seed(repetition), "fmu_sha256": bench.fmu_sha256, "dt": test.dt,
                      "step": test.step}
             if not all(_same(f.attrs.get(key), value) for key, value in attrs.items()):

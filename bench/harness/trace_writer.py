@@ -16,10 +16,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .channels import Channel
-
-FORMAT = "structbench-trace"
-FORMAT_VERSION = 1
+from structbench.models.channels import TRACE_FORMAT, TRACE_FORMAT_VERSION, Channel
 
 
 def software() -> str:
@@ -70,7 +67,7 @@ class Trace:
     attrs: dict = field(default_factory=dict)
 
     def root_attrs(self) -> dict:
-        return {"format": FORMAT, "format_version": FORMAT_VERSION, "campaign": self.campaign,
+        return {"format": TRACE_FORMAT, "format_version": TRACE_FORMAT_VERSION, "campaign": self.campaign,
                 "test": self.test, "group": self.group, "repetition": self.repetition,
                 "structure": self.structure, "fmu_name": self.fmu_name, "fmu_sha256": self.fmu_sha256,
                 "software": software(), "seed": self.seed, "dt": self.dt, "step": self.step} | self.attrs

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from structbench.harness.channels import ROTATIONS, Channel
+from structbench.models.channels import ROTATIONS, Channel
 from structbench.harness.trace_writer import ChannelData, Trace, trace_bytes, write_atomic
 from structbench.models.errors import UserError
 

@@ -46,7 +46,9 @@ import numpy as np
 
 from structbench.models.errors import UserError
 
-from .signals import QUANTITIES, Signal
+from structbench.models.channels import QUANTITIES
+
+from .signals import Signal
 
 CHANNEL_KEYS = {"name", "file", "quantity", "node", "direction", "unit", "location", "noise_ratio", "noise_mode",
                 "excitation"}

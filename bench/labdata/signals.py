@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-QUANTITIES = ("displacement", "velocity", "acceleration", "force")
+
 GROUPS = ("channels", "excitation")
 _NAME = re.compile(r"^(?:(channels|excitation)/)?(displacement|velocity|acceleration|force)_(\d+)_(\w+)$")
 

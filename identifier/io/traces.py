@@ -14,11 +14,11 @@ import h5py
 from h5py import h5d, h5o
 import numpy as np
 
+from structbench.models.channels import QUANTITIES, TRACE_FORMAT
+
 from ..errors import IdentificationError
 from .hdf5_reads import attributes, samples
 
-FORMAT = "structbench-trace"
-QUANTITIES = ("displacement", "velocity", "acceleration", "force")
 CHANNEL_ATTRS = ("quantity", "unit", "node", "direction")
 CHANNEL_FIELDS = CHANNEL_ATTRS + ("location", "noise_ratio", "noise_mode")  # the attributes a Channel keeps
 
@@ -225,9 +225,9 @@ def _excitation_attrs(f: h5py.File, where: str) -> dict[str, Any]:
 def _root_attrs(f: h5py.File, where: str) -> dict[str, Any]:
     """The root attributes, ``format`` checked and ``repetition`` an integer."""
     attrs = attributes(f.id)
-    if not isinstance(attrs.get("format"), str) or attrs["format"] != FORMAT:
+    if not isinstance(attrs.get("format"), str) or attrs["format"] != TRACE_FORMAT:
         raise IdentificationError(f"{where}: root attribute 'format' is {attrs.get('format')!r}, "
-                                  f"expected {FORMAT!r}", field="format")
+                                  f"expected {TRACE_FORMAT!r}", field="format")
     attrs["repetition"] = _number(attrs.get("repetition", 0), where, "repetition", int)
     return attrs
 

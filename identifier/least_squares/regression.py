@@ -33,7 +33,7 @@ import scipy.sparse as sp
 
 from structbench.models import Structure
 
-QUANTITIES = ("acceleration", "velocity", "displacement", "force")
+BLOCKS = ("acceleration", "velocity", "displacement", "force")
 CHUNK_VALUES = 4_000_000  # floats per chunk of the (DOF, slots, samples) block
 
 
@@ -116,7 +116,7 @@ def raw(motion, where: slice) -> np.ndarray:
     (sparse products copy operands in any other order)."""
     n, m = motion.force.shape[1], len(range(*where.indices(motion.force.shape[0])))
     x = np.empty((4 * n, m))
-    for i, q in enumerate(QUANTITIES):
+    for i, q in enumerate(BLOCKS):
         x[i * n:(i + 1) * n] = getattr(motion, q)[where].T
     return x
 
@@ -125,7 +125,7 @@ def raw_variance(motion, where: slice) -> np.ndarray:
     """Noise variance of the raw channels, (4 n, m_chunk), C order; zero where undeclared."""
     n, m = motion.force.shape[1], len(range(*where.indices(motion.force.shape[0])))
     x = np.zeros((4 * n, m))
-    for i, q in enumerate(QUANTITIES):
+    for i, q in enumerate(BLOCKS):
         if q in motion.sigma:
             np.square(motion.sigma[q][where].T, out=x[i * n:(i + 1) * n])
     return x
@@ -166,7 +166,7 @@ def moments(lay: Layout, motion, raw_gram: bool = False) -> Moments:
         blocks += np.matmul(y, y.transpose(0, 2, 1))
         if xtx is not None:
             xtx += x @ x.T
-    for i, q in enumerate(QUANTITIES):  # sum_k sigma^2, without the (4 n, m) copy
+    for i, q in enumerate(BLOCKS):  # sum_k sigma^2, without the (4 n, m) copy
         if q in motion.sigma:
             noise[i * lay.n_dof:(i + 1) * lay.n_dof] = np.einsum("kn,kn->n", motion.sigma[q], motion.sigma[q])
     return Moments(blocks, noise, m, xtx)

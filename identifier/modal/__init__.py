@@ -60,6 +60,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from structbench.models import Model
+from structbench.models.channels import QUANTITIES as RESPONSES
 
 from ..errors import IdentificationError
 from .uncertainty import Replicates, jackknife
@@ -73,7 +74,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from ..io.traces import Channel, Trace
 
-QUANTITIES = ("auto", "displacement", "velocity", "acceleration")
+QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
 UNCERTAINTY = ("jackknife", "off")
 COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
 COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there

@@ -1,8 +1,12 @@
-"""Measurement channels: a quantity at a (node, direction), its name and SI unit."""
+"""Measurement channels, the vocabulary of trace files shared by every layer:
+a quantity at a (node, direction), its name ``<quantity>_<node>_<direction>``
+and SI unit, and the trace format's name (``docs/trace-format.md``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+TRACE_FORMAT = "structbench-trace"
+TRACE_FORMAT_VERSION = 1
 QUANTITIES = ("displacement", "velocity", "acceleration", "force")
 ROTATIONS = frozenset({"theta", "rx", "ry", "rz"})
 
