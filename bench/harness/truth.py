@@ -5,11 +5,13 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from structbench.fmus.spec import parameter_names
 from structbench.models import ModalModel, Model
+from structbench.models.analysis import Modes, damping_ratios
 
 from .campaign import Campaign
-from .damping import damping_ratios
 
 TRUTH_FORMAT = "structbench-truth"
 
@@ -24,6 +26,17 @@ def _parameter_table(model: Model) -> list[dict[str, Any]]:
                 for r, v in enumerate(values, start=1)]
     return [{"name": name, "label": p.label, "kind": p.kind, "unit": p.unit, "element": p.element + 1,
              "value": float(v)} for name, p, v in zip(parameter_names(model), model.parameters, model.values)]
+
+
+def true_damping_ratios(model: Model, modes: Modes) -> np.ndarray:
+    """Damping ratio (r,) of each mode: a modal model's ``zeta``; an undamped
+    finite-element model 0; a damped one from each mode's own pole pair of
+    ``M u'' + C u' + K u = 0`` (:func:`models.analysis.damping_ratios`, NaN
+    for rigid-body and overdamped modes, zeta > 1)."""
+    if isinstance(model, ModalModel):
+        return np.asarray(model.zeta, dtype=float)[:modes.omega.size]
+    c = model.damping()
+    return damping_ratios(c, modes) if c.count_nonzero() else np.zeros(modes.omega.size)
 
 
 def sensor_dofs(campaign: Campaign) -> list[tuple[int, str]]:
@@ -52,7 +65,7 @@ def truth(campaign: Campaign) -> dict[str, Any] | None:
         "unknown": list(getattr(model, "unknown", ("frequency", "damping ratio"))),
         "parameters": _parameter_table(model),
         "omega": modes.omega.tolist(),
-        "zeta": damping_ratios(model, modes.omega).tolist(),
+        "zeta": true_damping_ratios(model, modes).tolist(),
         "lambda": modes.lam.tolist(),
         "dofs": [list(d) for d in model.dofs],
         "sensor_dofs": [list(model.dofs[i]) for i in at],
