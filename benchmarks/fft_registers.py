@@ -1,5 +1,6 @@
 """FFTs after a complex matrix product, with and without the vector
-registers cleared (identifier/runtime.py), measured in one run.
+registers cleared (the opt-in tuning of identifier/modal/runtime.py), measured
+in one run; the process opts in (``runtime.tune_process()``) first.
 
 OpenBLAS's AVX-512 complex kernels return with the upper halves of the
 vector registers dirty; pocketfft's SSE code after them pays the AVX/SSE
@@ -27,7 +28,8 @@ from threadpoolctl import threadpool_info
 sys.path.insert(0, str(Path(__file__).parent))
 from modal_accuracy import beam_case  # noqa: E402
 
-from structbench.identifier import modal, runtime  # noqa: E402
+from structbench.identifier import modal  # noqa: E402
+from structbench.identifier.modal import runtime  # noqa: E402
 
 
 def median_ms(call: Callable[[], object], before: Callable[[], object], repeat: int) -> float:
@@ -45,7 +47,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=30)
     args = parser.parse_args(argv)
-    runtime.keep_freed_memory()
+    runtime.tune_process()
     for lib in threadpool_info():
         print(f"{lib['internal_api']} {lib['version']} ({lib['architecture']}): {Path(lib['filepath']).name}")
     rng = np.random.default_rng(0)

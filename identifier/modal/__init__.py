@@ -66,7 +66,7 @@ from ..errors import IdentificationError
 from .uncertainty import Replicates, jackknife
 from .close_pairs import split_free_decays
 from ..io.results import Identification
-from .runtime import keep_freed_memory, one_blas_thread
+from .runtime import one_blas_thread, tune_from_environment
 from .ssi.covariance import covariances, is_free_decay, project, reference_channels, row_projection
 from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi.hankel import BlockHankel, leading_svd
@@ -121,14 +121,14 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     do not). ``refine``: ``auto`` fits free responses whole to split close
     pairs (:mod:`identifier.modal.close_pairs`), ``off`` does not. ``uncertainty``:
     ``off`` skips the jackknife (about half the time): no standard errors
-    (NaN) and no check that replicates find each mode again. The first
-    call raises glibc's malloc thresholds for the process
-    (:func:`identifier.modal.runtime.keep_freed_memory`)."""
+    (NaN) and no check that replicates find each mode again. Changes nothing
+    outside its own work unless the process opted in to tuning
+    (:mod:`identifier.modal.runtime`)."""
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
     records, channels, dt = sensor_records(traces, quantity)
-    keep_freed_memory()  # glibc: no page faults on every Hankel product (:mod:`identifier.modal.runtime`)
+    tune_from_environment()
     m = records[0].shape[0]
     r = min(references, m)
     if (block_rows is not None and block_rows < 2) or max_order < 2 or segments < 2 or references < 1:
