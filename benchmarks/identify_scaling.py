@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg as la
 
 from structbench.identifier.least_squares import Motion, solve
-from structbench.identifier.least_squares.ols import DENSE_COLUMNS
+from structbench.identifier.least_squares.regression import DENSE_COLUMNS
 from structbench.models.library import beam
 
 SAMPLES = 0.5 * np.arange(1, 9)

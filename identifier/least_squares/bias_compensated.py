@@ -15,7 +15,7 @@ With ``weighting="noise"`` the equations are whitened by the noise at the
 previous estimate (re-weighted :data:`REWEIGHTINGS` times after the
 unweighted solution); ``G`` and ``D`` then carry the weights:
 
-* up to :data:`identifier.least_squares.whitened.DENSE_DOF` DOF, by the inverse of the
+* up to :data:`identifier.least_squares.regression.DENSE_DOF` DOF, by the inverse of the
   DOF-coupled covariance of one sample's equation errors,
   ``Omega = (Mt^T diag(sigma^2) Mt)^-1`` (:mod:`identifier.least_squares.whitened`): this
   is what makes noisy displacements (entering through ``K``) harmless;
@@ -57,9 +57,8 @@ from structbench.models import Structure
 from .estimate import Estimate
 from . import whitened
 from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
-from .regression import Layout, error_variance, gram, layout, moments, scores
+from .regression import DENSE_COLUMNS, DENSE_DOF, Layout, error_variance, gram, layout, moments, scores
 
-DENSE_COLUMNS = 1000
 REWEIGHTINGS = 3
 
 
@@ -132,7 +131,7 @@ class _RowWeights:
 
 class _Whitening:
     """Full whitening with the DOF-coupled equation-error covariance
-    (:mod:`identifier.least_squares.whitened`), up to :data:`whitened.DENSE_DOF` DOF."""
+    (:mod:`identifier.least_squares.whitened`), up to :data:`regression.DENSE_DOF` DOF."""
 
     label = "noise (full DOF covariance)"
 
@@ -175,7 +174,7 @@ def solve_compensated(model: Structure, motion, weighting: str = "noise", rcond:
     known = model.values[~mask]
     check_count(motion.force.size, int(mask.sum()))
     lay = layout(model)
-    system = (_Whitening if model.n_dof <= whitened.DENSE_DOF else _RowWeights)(lay, motion)
+    system = (_Whitening if model.n_dof <= DENSE_DOF else _RowWeights)(lay, motion)
     G, D = system.gram(None)
     u = np.flatnonzero(mask)
     norms = {kind: float(np.sqrt(np.einsum("ij,ij->", x, x))) for kind, x in

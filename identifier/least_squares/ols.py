@@ -29,9 +29,8 @@ from structbench.models import Structure
 from ..errors import IdentificationError
 from .estimate import Estimate
 from .identifiability import check_count, check_excited, not_identifiable, raise_deficient
+from .regression import DENSE_COLUMNS, DENSE_DOF
 
-DENSE_COLUMNS = 1000
-DENSE_DOF = 600
 WEIGHTINGS = ("noise", "none")
 
 

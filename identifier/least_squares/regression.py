@@ -34,6 +34,8 @@ import scipy.sparse as sp
 from structbench.models import Structure
 
 BLOCKS = ("acceleration", "velocity", "displacement", "force")
+DENSE_COLUMNS = 1000  # unknowns solved by a dense factorisation up to this many, sparse beyond
+DENSE_DOF = 400  # DOF-coupled (dense n x n) noise whitening up to this many DOF, diagonal beyond
 CHUNK_VALUES = 4_000_000  # floats per chunk of the (DOF, slots, samples) block
 
 
