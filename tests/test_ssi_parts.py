@@ -175,3 +175,18 @@ def test_stable_flags_are_the_pairwise_definition():
     flags = stable_flags(poles, criteria)
     assert [f.tolist() for f in flags] == [e.tolist() for e in expected]
     assert 10 < sum(int(f.sum()) for f in flags) < sum(f.size for f in flags)  # some stable, not all
+
+
+def test_free_decay_is_decided_whatever_the_channels_units():
+    """One decaying channel among stationary ones: scaling any channel (a
+    displacement in m beside an acceleration in m/s^2) changes nothing; the
+    decision is the one per-channel RMS scaling gives."""
+    rng = np.random.default_rng(1)
+    decay = rng.standard_normal((3, 4000)) * np.exp(-np.arange(4000) / 300.0)
+    stationary = rng.standard_normal((3, 4000))
+    for units in ([1.0, 1.0, 1.0], [1e6, 1.0, 1e-6], [1e-6, 1e3, 1.0]):
+        scale = np.array(units)[:, None]
+        assert is_free_decay(decay * scale)
+        assert not is_free_decay(stationary * scale)
+    mixed = np.vstack([decay[:1] * 1e-6, stationary[:2] * 1e3])  # a tiny decaying channel still counts
+    assert is_free_decay(mixed) == is_free_decay(np.vstack([decay[:1], stationary[:2]]))

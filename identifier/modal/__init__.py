@@ -137,8 +137,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     shortest = min(y.shape[1] for y in records)
     mo = min(m, max(ROW_CHANNELS, r))
     refs = reference_channels(m, r)
-    decay = all(is_free_decay(y / np.maximum(np.std(y, axis=1, keepdims=True), np.finfo(float).tiny))
-                for y in records)
+    decay = all(is_free_decay(y) for y in records)
     f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
     p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, block_rows)
     if shortest < 20 * (p + q):

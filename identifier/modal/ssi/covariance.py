@@ -95,7 +95,10 @@ def group_labels(n: int, groups: int, lags: int, decay: bool) -> np.ndarray:
 
 def is_free_decay(y: np.ndarray) -> bool:
     """A record (m, n) whose first tenth carries more than 10 times the mean
-    square of its last tenth: a free decay rather than a stationary response."""
+    square of its last tenth, each channel scaled to unit RMS first (so that
+    no one channel's units decide): a free decay rather than a stationary
+    response."""
+    y = y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny)
     tenth = max(y.shape[1] // 10, 1)
     first, last = np.mean(y[:, :tenth] ** 2), np.mean(y[:, -tenth:] ** 2)
     return bool(first > 10.0 * last)
@@ -149,7 +152,7 @@ def covariances(records: list[np.ndarray], dt: float, lags: int, references: int
     counts = np.zeros((groups, lags))
     for y in records:
         usable = y.shape[1] - lags  # the same reference samples k for every lag keep R_l = C A^(l-1) G exact
-        decay = is_free_decay(y / scale[:, None])
+        decay = is_free_decay(y)
         piece = decay_block(lags) if decay else stationary_piece(usable, groups, lags, m, refs.size)
         size = sfft.next_fast_len(piece + lags + 1, real=True)
         runs = _runs(group_labels(usable, groups, lags, decay), piece)
