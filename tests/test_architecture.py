@@ -117,3 +117,37 @@ def test_identifiers_never_name_the_truth_file():
         strings = [node.value for node in ast.walk(tree) if isinstance(node, ast.Constant)
                    and isinstance(node.value, str) and id(node) not in docstrings]
         assert not [s for s in strings if "truth" in s], path
+
+
+def test_no_import_cycles():
+    """No module reaches itself through imports (those under TYPE_CHECKING
+    included): package __init__ files aside, each module only depends on
+    modules that do not depend on it."""
+    files = {module_name(p): p for folder in PACKAGES for p in sources(folder)}
+    modules = {name for name, path in files.items() if path.name != "__init__.py"}
+
+    def targets(name: str) -> set[str]:
+        found = set()
+        for imported in imports(files[name]):
+            while imported and imported not in modules:
+                imported = imported.rpartition(".")[0]
+            if imported and imported != name:
+                found.add(imported)
+        return found
+
+    graph = {name: targets(name) for name in modules}
+    cycles, state = [], {}
+
+    def visit(name: str, path: list[str]) -> None:
+        state[name] = "open"
+        for nxt in sorted(graph[name]):
+            if state.get(nxt) == "open":
+                cycles.append(path[path.index(nxt):] + [nxt] if nxt in path else [name, nxt])
+            elif nxt not in state:
+                visit(nxt, path + [nxt])
+        state[name] = "done"
+
+    for name in sorted(graph):
+        if name not in state:
+            visit(name, [name])
+    assert not cycles

@@ -6,7 +6,7 @@ import math
 import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from structbench.models import ModalModel, Model
 from structbench.models.errors import UserError
@@ -17,10 +17,16 @@ from .excitation import (Excitation, Harmonic, Impulse, Initial, RandomForce, fo
 from .external import VariableMap
 from .noise import MODES, NoiseSpec, actuator_rng, derived_seed
 from .toml_lines import Path as KeyPath
-from .toml_table import Table
+from .toml_table import CampaignError, Table
 
-if TYPE_CHECKING:
-    from .campaign import CampaignReader
+
+class Reader(Protocol):
+    """What the test entries need of the campaign file being read: an error
+    at a key path, and recording the FMU variable a (quantity, DOF) needs."""
+
+    def error(self, key: KeyPath, message: str) -> CampaignError: ...
+
+    def want(self, key: KeyPath, mapping: VariableMap, quantity: str, node: int, direction: str) -> None: ...
 
 TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise",
              "timeout")
@@ -103,7 +109,7 @@ class TestReader:
     """One ``[[tests]]`` entry (merged with ``[defaults]``) into TestSpecs."""
 
     def __init__(self, table: Table, model: Model | None, locations: Mapping[int, Any],
-                 mapping: VariableMap, seed: int, reader: "CampaignReader"):
+                 mapping: VariableMap, seed: int, reader: Reader):
         self.t, self.model, self.locations, self.mapping, self.reader = table, model, locations, mapping, reader
         table.allow(TEST_KEYS, "a test")
         self.name = table.string("name")
