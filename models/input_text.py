@@ -1,7 +1,7 @@
 """The text files a user writes (campaign and model TOML), read with a size limit.
 
-Parsing TOML takes about 1 s per MB; a multi-GB file (a generated list
-gone wrong) would take hours before its first error, so a file over
+Parsing TOML takes time in proportion to the file's size; a multi-GB file
+(a generated list gone wrong) would take hours before its first error, so a file over
 :data:`MAX_TEXT_BYTES` is refused unread.
 """
 from __future__ import annotations

@@ -1,10 +1,9 @@
 """HDF5 attributes and 1-D datasets read with few library calls.
 
 h5py's high-level ``obj.attrs[name]`` costs some 15 calls into the library
-per attribute (about 40 us); a trace of 100 channels holds some 700
-attributes, so reading a folder of traces was mostly attribute overhead.
-Here the common types are read with h5py's low-level API (open, type,
-shape, read: about 15 us): scalar variable-length strings, scalar integers
+per attribute, and a trace of 100 channels holds some 700 attributes. Here
+the common types are read with h5py's low-level API (open, type, shape,
+read): scalar variable-length strings, scalar integers
 of at most 8 bytes (unsigned: fewer), scalar floats of at most 8 bytes, and
 arrays of native 8-byte integers or floats. Every other attribute goes
 through h5py's ``AttributeManager``. Either way the value is what

@@ -167,7 +167,7 @@ def select_modes(poles: list[Poles], criteria: Criteria,
 
 def median(values: np.ndarray | list[float]) -> float:
     """The median of a few values: ``np.median``'s value (the mean of the
-    two middle ones for an even count) without its overhead, 2 us instead of 20."""
+    two middle ones for an even count) without its per-call overhead."""
     v = np.sort(np.asarray(values, dtype=float))
     return float((v[(v.size - 1) // 2] + v[v.size // 2]) / 2)
 

@@ -121,8 +121,7 @@ _probes_lock = Lock()
 def _probe_spectrum(columns: int, references: int, width: int, size: int) -> np.ndarray:
     """The FFT (:meth:`BlockHankel.transform`, read-only) of the Gaussian
     probe (``columns`` x ``references``, ``width``) drawn from seed 0: a
-    constant of the method, made once per shape and process (on the beam's
-    4250 x 50, 2.8 ms of a 28 ms identification) and kept while the spectra
+    constant of the method, made once per shape and process and kept while the spectra
     of the most recent shapes take at most ``PROBE_BYTES`` (one lock for
     identifications in several threads)."""
     key = (columns, references, width, size)
