@@ -17,16 +17,54 @@ from .progress import bar, interactive
 
 HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh, modal) from a campaign's traces"
 
+# The built-in methods' help, defaults and choices as api.methods() has them
+# (tests/test_cli_startup.py holds the two equal): --help shows them without
+# importing the identifiers and numpy. Plugins are listed by entry point name.
+BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
+    "least-squares": (
+        "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
+        {"estimator": "bias-compensated", "samples": None, "interval": 0.5, "integration": "auto",
+         "weighting": "noise"},
+        {"estimator": ("bias-compensated", "ols"), "integration": ("auto", "zoh-simpson", "simpson", "trapezoid"),
+         "weighting": ("noise", "none")}),
+    "perturbation": (
+        "chapter 4: iterative frequency-domain perturbation from a postulated model",
+        {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False}, {}),
+    "rayleigh": (
+        "chapter 5: modes from free response by a pseudo-Rayleigh quotient",
+        {"variant": "auto", "window": "hann", "admissible": None, "functions": None},
+        {"variant": ("auto", "displacement", "velocity"), "window": ("hann", "rectangular"),
+         "admissible": (None, "cosine")}),
+    "modal": (
+        "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
+        {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
+         "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
+        {"quantity": ("auto", "displacement", "velocity", "acceleration"), "refine": ("auto", "off"),
+         "uncertainty": ("jackknife", "off")}),
+}
+PLUGIN_GROUP = "structbench.identifiers"  # docs/plugins.md
+
+
+def plugin_names() -> list[str]:
+    """Installed plugin methods by entry point name (not loaded)."""
+    from importlib.metadata import entry_points
+    return sorted({e.name for e in entry_points(group=PLUGIN_GROUP)} - set(BUILTIN))
+
 
 def _default(method: str, option: str) -> Any:
-    return api.methods()[method].defaults[option]
+    return BUILTIN[method][1][option]
+
+
+def _choices(method: str, option: str) -> tuple[Any, ...]:
+    return BUILTIN[method][2][option]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    known = api.methods()
+    plugins = plugin_names()
     parser.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR", help="output folder of structbench run")
-    parser.add_argument("--method", required=True, choices=list(known),
-                        help="; ".join(f"{m.name}: {m.help}" for m in known.values()))
+    parser.add_argument("--method", required=True, choices=[*BUILTIN, *plugins],
+                        help="; ".join([f"{name}: {about[0]}" for name, about in BUILTIN.items()]
+                                       + [f"{name}: plugin (docs/plugins.md)" for name in plugins]))
     parser.add_argument("--model", metavar="NAME_OR_TOML",
                         help="model with the unknown parameters (default: the traces' structure; for the "
                              "perturbation method its '-postulated' variant when there is one)")
@@ -45,16 +83,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "VALUE parsed as JSON when it is, else a string), e.g. --option modes=3")
     ls, pt, ry = "least-squares", "perturbation", "rayleigh"
     group = parser.add_argument_group(ls)
-    group.add_argument("--estimator", choices=known[ls].choices["estimator"],
+    group.add_argument("--estimator", choices=_choices(ls, "estimator"),
                        help="bias-compensated: every channel's noise compensated, calibrated standard errors "
                             "(default); ols: the dissertation's least squares")
     group.add_argument("--samples", type=int, metavar="M",
                        help="sample times per trace (default: every sample)")
     group.add_argument("--interval", type=float, metavar="S",
                        help=f"with --samples: t_k = t_0 + interval k, s (default {_default(ls, 'interval')})")
-    group.add_argument("--integration", choices=known[ls].choices["integration"],
+    group.add_argument("--integration", choices=_choices(ls, "integration"),
                        help="displacements and velocities: measured when logged (auto), else integrated")
-    group.add_argument("--weighting", choices=known[ls].choices["weighting"],
+    group.add_argument("--weighting", choices=_choices(ls, "weighting"),
                        help="generalised least squares with the declared sensor noise (default) or plain")
     group = parser.add_argument_group(pt)
     group.add_argument("--max-iterations", type=int, metavar="N",
@@ -63,15 +101,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--natural-frequencies", action="store_true", default=None,
                        help="add the natural frequencies found in the free vibration (not in the dissertation)")
     group = parser.add_argument_group(ry)
-    group.add_argument("--variant", choices=known[ry].choices["variant"],
+    group.add_argument("--variant", choices=_choices(ry, "variant"),
                        help="displacement/velocity or velocity/acceleration correlations (default auto)")
-    group.add_argument("--window", choices=known[ry].choices["window"],
+    group.add_argument("--window", choices=_choices(ry, "window"),
                        help="taper of the time averages (default hann)")
     group.add_argument("--admissible", choices=["cosine"], help="admissible functions with FE interpolation")
     group.add_argument("--functions", type=int, metavar="K", help="number of admissible functions (default: sensors)")
     md = "modal"
     group = parser.add_argument_group(md)
-    group.add_argument("--quantity", choices=known[md].choices["quantity"],
+    group.add_argument("--quantity", choices=_choices(md, "quantity"),
                        help="sensors used: displacement, else velocity, else acceleration (default auto)")
     group.add_argument("--block-rows", type=int, metavar="P",
                        help="block rows of the covariance Hankel matrix (default from the data: up to 4000 / row channels, record length / 25)")
@@ -83,9 +121,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help=f"sample groups of the jackknife errors (default {_default(md, 'segments')})")
     group.add_argument("--min-fraction", type=float, metavar="F",
                        help=f"share of the orders a mode must be stable in (default {_default(md, 'min_fraction')})")
-    group.add_argument("--refine", choices=known[md].choices["refine"],
+    group.add_argument("--refine", choices=_choices(md, "refine"),
                        help="auto: fit free responses whole to split close pairs of modes (default auto)")
-    group.add_argument("--uncertainty", choices=known[md].choices["uncertainty"],
+    group.add_argument("--uncertainty", choices=_choices(md, "uncertainty"),
                        help="jackknife: standard errors of frequencies and damping ratios; off: none, "
                             "about half the time (default jackknife)")
 

@@ -4,8 +4,10 @@ logs stay short)."""
 from __future__ import annotations
 
 import sys
+from typing import TYPE_CHECKING
 
-from tqdm import tqdm
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
 
 def interactive() -> bool:
@@ -15,5 +17,6 @@ def interactive() -> bool:
 
 def bar(total: int | None, unit: str, desc: str = "") -> tqdm:
     """A progress bar on stderr (``total`` None: a counter)."""
+    from tqdm import tqdm
     return tqdm(total=total, unit=unit, desc=desc, file=sys.stderr, dynamic_ncols=True, leave=False,
                 smoothing=0)  # average rate: the callers set the count directly
