@@ -65,15 +65,20 @@ class BuiltFmu:
 
 def modes(structure: str | Path, count: int = 10) -> dict[str, Any]:
     """Natural frequencies of a built-in structure or TOML model:
-    ``{"structure", "n_dof", "omega" (rad/s, rigid-body 0.0), "lambda" (omega^2)}``."""
-    from structbench.models import load_model
+    ``{"structure", "n_dof", "omega" (rad/s, rigid-body 0.0), "lambda" (omega^2),
+    "kind" ("finite-element" or "modal"), "n_modes"}``: a finite-element model
+    has one mode per DOF, a modal model its own number of modes and ``n_dof``
+    points where forces act and sensors sit."""
+    from structbench.models import ModalModel, load_model
     from structbench.models.errors import UserError
     if count < 1:
         raise UserError("must be at least 1", field="--count")
     model = load_model(structure)
     m = model.modes(count)
+    modal = isinstance(model, ModalModel)
     return {"structure": model.name, "n_dof": model.n_dof,
-            "omega": [float(w) for w in m.omega], "lambda": [float(v) for v in m.lam]}
+            "omega": [float(w) for w in m.omega], "lambda": [float(v) for v in m.lam],
+            "kind": "modal" if modal else "finite-element", "n_modes": model.n_modes if modal else model.n_dof}
 
 
 def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path | None = None) -> list[BuiltFmu]:

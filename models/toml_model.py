@@ -1,9 +1,11 @@
 """Structures described in TOML (format: docs/model-format.md).
 
-Every error names the offending field, e.g. ``elements[3].m``.
+Every error names the offending field, e.g. ``elements[3].m``; read from a
+file, also the file and the field's line (``frame.toml:12: elements[3].m:``).
 """
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -133,12 +135,63 @@ def _check_mass(structure: Structure) -> None:
                          "add a mass element or a support", field="elements")
 
 
+_HEADER = re.compile(r"\s*(\[\[?)\s*([A-Za-z0-9_-]+)\s*\]")
+_KEY = re.compile(r"\s*([A-Za-z0-9_-]+|\"[^\"]*\"|'[^']*')\s*=")
+_STRING = re.compile(r'"(?:\\.|[^"\\])*"|\'[^\']*\'')
+_FIELD = re.compile(r"([A-Za-z0-9_-]+)|\[(\d+)\]")
+
+
+def key_lines(text: str) -> dict[tuple[str | int, ...], int]:
+    """Line (1-based) of each header and key of a model file by key path,
+    arrays of tables counted from 1 as the errors name them:
+    ``("elements", 3, "m")`` is ``m`` of the third ``[[elements]]``. Keys
+    inside inline tables, multi-line arrays and strings are not listed."""
+    lines: dict[tuple[str | int, ...], int] = {}
+    counts: dict[str, int] = {}
+    table: tuple[str | int, ...] = ()
+    depth, quote = 0, None
+    for number, line in enumerate(text.splitlines(), start=1):
+        if quote is not None:  # inside a multi-line string
+            quote = None if line.count(quote) % 2 else quote
+            continue
+        header, key = _HEADER.match(line), _KEY.match(line)
+        if depth == 0 and header:
+            name = header[2]
+            counts[name] = counts.get(name, 0) + 1
+            table = (name, counts[name]) if header[1] == "[[" else (name,)
+            lines.setdefault((name,), number)
+            lines.setdefault(table, number)
+            continue
+        if depth == 0 and key:
+            lines.setdefault(table + (key[1].strip("\"'"),), number)
+        quote = next((q for q in ('"""', "'''") if line.count(q) % 2), None)
+        code = _STRING.sub("", line).split("#", 1)[0]
+        depth = max(depth + code.count("[") - code.count("]") + code.count("{") - code.count("}"), 0)
+    return lines
+
+
+def field_line(text: str, field: str | None) -> int | None:
+    """Line of a field named as in the errors (``elements[3].m``), or of its
+    closest written ancestor (``elements[3]`` for a missing key)."""
+    if not field:
+        return None
+    path = tuple(int(m[2]) if m[2] else m[1] for m in _FIELD.finditer(field))
+    lines = key_lines(text)
+    return next((lines[path[:end]] for end in range(len(path), 0, -1) if path[:end] in lines), None)
+
+
 def load_structure(path: str | Path) -> Structure:
-    """Read a TOML model file; malformed TOML raises :class:`ModelError` with its line."""
+    """Read a TOML model file; an error names the file, the line and the
+    field (malformed TOML: the line and column of the parser)."""
     path = Path(path)
     text = read_input_text(path, "model file", ModelError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ModelError(f"malformed TOML: {err}", field=path.name) from None
-    return structure_from_dict(data, default_name=path.stem)
+        line = re.search(r"at line (\d+)", str(err))
+        raise ModelError(f"malformed TOML: {err}", field=f"{path.name}:{line[1]}" if line else path.name) from None
+    try:
+        return structure_from_dict(data, default_name=path.stem)
+    except ModelError as err:
+        line = field_line(text, err.field)
+        raise err.at(f"{path.name}:{line}" if line else path.name) from None

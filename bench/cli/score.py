@@ -1,9 +1,19 @@
-"""``structbench score``: compare a campaign's results with its truth."""
+"""``structbench score``: compare a campaign's results with its truth.
+
+The text output says what ``--json`` holds in short: parameter errors, and
+for modal results (modes paired with the true ones) a table of the true
+modes with how often each was found, the median frequency and damping
+errors, the coverage of the stated standard errors and the MAC; modes never
+found read ``not found``, modes found beyond the true ones are counted as
+invented.
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
+from typing import Any
 
 from structbench import api
 
@@ -15,8 +25,66 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the scores as JSON")
 
 
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _num(value: Any, spec: str, width: int) -> str:
+    """``value`` formatted, or ``-`` (no value: unknown truth, no stated error)."""
+    return (format(value, spec) if _finite(value) else "-").rjust(width)
+
+
 def _fmt(values: list[float], digits: int = 2) -> str:
-    return " ".join(f"{v:+.{digits}f}" for v in values)
+    return " ".join(f"{v:+.{digits}f}" if _finite(v) else "n/a" for v in values)
+
+
+def _coverage(runs: list[dict[str, Any]], key: str) -> str:
+    """Share of (run, mode) pairs whose 95 % interval holds the truth."""
+    flags = [v for r in runs for v in r.get(key, []) if _finite(v)]
+    return f"{100 * sum(flags) / len(flags):.0f} % of {len(flags)}" if flags else "no stated errors"
+
+
+def modal_lines(summary: dict[str, Any], runs: list[dict[str, Any]]) -> list[str]:
+    """Text lines of modal scores: modes found, missed and invented, coverage
+    of the stated errors, then one row per true mode."""
+    found = summary["found_fraction"]
+    missed = [str(i) for i, f in enumerate(found, start=1) if not f > 0]
+    lines = [f"  modes: {len(found) - len(missed)} of {len(found)} true modes found"
+             + (f" in some run, missed: mode(s) {', '.join(missed)}" if missed else "")
+             + f"; invented (spurious) modes per run: median {summary['extra_modes_median']:g}",
+             f"  coverage of the stated standard errors (95 % intervals): frequencies "
+             f"{_coverage(runs, 'omega_covered')}, damping ratios {_coverage(runs, 'zeta_covered')}",
+             f"  {'mode':>4s} {'omega true':>11s} {'found':>6s} {'freq err %':>11s} {'damp err %':>11s} "
+             f"{'omega cov':>9s} {'zeta cov':>9s}" + (f" {'MAC':>6s}" if "mac_median" in summary else "")]
+    for i, share in enumerate(found):
+        head = f"  {i + 1:4d} {summary['omega_true'][i]:11.5g} {100 * share:4.0f} %"
+        if not share > 0:
+            lines.append(f"{head} {'not found':>11s}")
+            continue
+        cover = [_num(100 * summary[key][i], ".0f", 7) + " %" for key in ("omega_coverage", "zeta_coverage")]
+        row = (f"{head} {_num(summary['freq_error_pct_median'][i], '+.3f', 11)} "
+               f"{_num(summary['damping_error_pct_median'][i], '+.2f', 11)} {' '.join(cover)}")
+        lines.append(row + (f" {_num(summary['mac_median'][i], '.3f', 6)}" if "mac_median" in summary else ""))
+    return lines
+
+
+def lines(stem: str, score: dict[str, Any]) -> list[str]:
+    """Text lines of one results file's scores."""
+    s = score["summary"]
+    out = [f"{stem} ({score['method']}, {s['runs']} run(s))"]
+    if "rms" in s:
+        out.append(f"  normalized RMS parameter error: median {s['rms']['median']:.4g} "
+                   f"(10-90 %: {s['rms']['p10']:.4g} .. {s['rms']['p90']:.4g})")
+    if "rms_initial" in s:
+        out.append(f"  starting model: median {s['rms_initial']['median']:.4g}; improved in "
+                   f"{100 * s['improved_fraction']:.0f} % of runs; iterations {s['iterations']}")
+    if "found_fraction" in s:  # modal results, modes paired with the true ones
+        return out + modal_lines(s, score["runs"])
+    if s.get("freq_error_pct_median"):
+        out.append(f"  frequency error (%), median per mode: {_fmt(s['freq_error_pct_median'])}")
+    if s.get("mac_median"):
+        out.append(f"  MAC, median per mode: {' '.join(f'{v:.3f}' for v in s['mac_median'])}")
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,16 +93,5 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(scores, indent=1))
         return 0
     for stem, score in scores.items():
-        s = score["summary"]
-        print(f"{stem} ({score['method']}, {s['runs']} run(s))")
-        if "rms" in s:
-            print(f"  normalized RMS parameter error: median {s['rms']['median']:.4g} "
-                  f"(10-90 %: {s['rms']['p10']:.4g} .. {s['rms']['p90']:.4g})")
-        if "rms_initial" in s:
-            print(f"  starting model: median {s['rms_initial']['median']:.4g}; improved in "
-                  f"{100 * s['improved_fraction']:.0f} % of runs; iterations {s['iterations']}")
-        if s.get("freq_error_pct_median"):
-            print(f"  frequency error (%), median per mode: {_fmt(s['freq_error_pct_median'])}")
-        if s.get("mac_median"):
-            print(f"  MAC, median per mode: {' '.join(f'{v:.3f}' for v in s['mac_median'])}")
+        print("\n".join(lines(stem, score)))
     return 0

@@ -15,19 +15,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 
+def origin(data: dict) -> str:
+    """The first line: the campaign that was run, or the lab files imported."""
+    truth = f"truth.json {'present' if data['truth'] else 'absent'}"
+    if data.get("imported"):
+        files = data["sources"]
+        shown = ", ".join(files[:3]) + (f" and {len(files) - 3} more" if len(files) > 3 else "")
+        names = [f"{what} {data[what]}" for what in ("campaign", "structure") if data[what]]
+        return (f"imported lab data (structbench import) from {len(files)} file(s): {shown}"
+                + (f"; {', '.join(names)}" if names else "") + f"; {truth}")
+    return (f"campaign {data['campaign'] or '?'} on {data['structure'] or '?'} "
+            f"(FMU sha256 {data['fmu_sha256'][:12] or '?'}); {truth}")
+
+
 def _table(data: dict) -> str:
-    lines = [f"campaign {data['campaign'] or '?'} on {data['structure'] or '?'} "
-             f"(FMU sha256 {data['fmu_sha256'][:12] or '?'}); truth.json {'present' if data['truth'] else 'absent'}",
-             f"{sum(t['files'] for t in data['tests'])} trace files, {data['bytes'] / 1e6:.1f} MB; "
-             + ", ".join(f"{k} {v}" for k, v in data["summary"].items())]
+    lines = [origin(data),
+             f"{sum(t['files'] for t in data['tests'])} trace files, {data['bytes'] / 1e6:.1f} MB"
+             + ("; " + ", ".join(f"{k} {v}" for k, v in data["summary"].items()) if data["summary"] else "")]
     head = f"{'test':24s} {'state':8s} {'files':>9s} {'dt (s)':>9s} {'samples':>8s} {'channels':>8s}  excitation"
     lines.append(head)
+    state = "imported" if data.get("imported") else "?"
     for t in data["tests"]:
         files = f"{t['files']}/{t.get('expected', t['files'])}"
         omega = f" omega = {t['omega']:g} rad/s" if t.get("omega") is not None else ""
         sampling = (f"{t['dt']:9.4g} {t['samples']:8d} {len(t['channels']):8d}  {t['excitation']}{omega}"
                     if "dt" in t else "")
-        lines.append(f"{t['test']:24s} {t.get('state', '?'):8s} {files:>9s} {sampling}")
+        lines.append(f"{t['test']:24s} {t.get('state', state):8s} {files:>9s} {sampling}")
         if t.get("error"):
             lines.append(f"    error: {t['error']}")
     return "\n".join(lines)

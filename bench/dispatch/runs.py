@@ -13,6 +13,7 @@ are read run by run, by the process that identifies the run
 """
 from __future__ import annotations
 
+import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from fnmatch import fnmatch
 from pathlib import Path
@@ -30,10 +31,37 @@ from .parallel import identify_runs
 T = TypeVar("T", Trace, TraceInfo)
 
 
-def resolve_model(name: str | None, traces: Sequence[Trace | TraceInfo], chosen: Method) -> Model | None:
-    """The given model or the structure named by the traces (its
-    ``-postulated`` variant for methods that start from one); ``None`` when
-    the method can do without and the structure is not a known model."""
+def campaign_model(folder: Path, structure: str) -> tuple[str | None, Model | None]:
+    """The TOML model that the folder's copy of its campaign
+    (``campaign.toml``) names as its structure: (the file name as written,
+    the model or None). A relative name is relative to the campaign file,
+    which the copy does not record: it is looked for beside the folder, from
+    the working folder and in the folder, and taken only when its model is
+    the ``structure`` the traces name."""
+    try:
+        ref = tomllib.loads((folder / "campaign.toml").read_text(encoding="utf-8")).get("structure")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None, None
+    if not isinstance(ref, str) or not ref.endswith(".toml"):
+        return None, None
+    for base in (folder.parent, Path.cwd(), folder):
+        candidate = (base / ref).resolve()  # an absolute ref stays itself
+        try:
+            model = load_model(candidate) if candidate.is_file() else None
+        except ModelError:
+            continue
+        if model is not None and model.name == structure:
+            return ref, model
+    return ref, None
+
+
+def resolve_model(name: str | None, traces: Sequence[Trace | TraceInfo], chosen: Method,
+                  folder: Path | None = None) -> Model | None:
+    """The given model, else the structure named by the traces (its
+    ``-postulated`` variant for methods that start from one): a built-in
+    name, or the TOML model file of the campaign run into ``folder``;
+    ``None`` when the method can do without and the structure is not a
+    known model."""
     if chosen.model == "none":
         return None
     if name is not None:
@@ -42,12 +70,18 @@ def resolve_model(name: str | None, traces: Sequence[Trace | TraceInfo], chosen:
     if chosen.postulated and f"{structure}-postulated" in STRUCTURES:
         structure = f"{structure}-postulated"
     try:
-        return load_model(structure)
+        return load_model(structure)  # a built-in name (or a TOML path an imported folder's map gave)
     except ModelError:
-        if chosen.model == "optional":
-            return None
-        raise IdentificationError(f"the traces' structure {structure!r} is not a known model; give --model",
-                                  field="--model") from None
+        pass
+    ref, model = campaign_model(folder, structure) if folder is not None else (None, None)
+    if model is not None:
+        return model
+    if chosen.model == "optional":
+        return None
+    where = (f" and its TOML model {ref!r} (campaign.toml) is not found beside {folder} nor in the working folder"
+             if ref is not None else "")
+    raise IdentificationError(f"the traces' structure {structure!r} is not a known model{where}; give --model",
+                              field="--model")
 
 
 def group_runs(traces: list[T], groups: Sequence[str] | None = None, tests: Sequence[str] | None = None,
@@ -89,7 +123,7 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
     chosen = method(method_name)
     settings = chosen.options(options or {})
     infos = read_infos(folder)
-    resolved = resolve_model(model, infos, chosen)
+    resolved = resolve_model(model, infos, chosen, folder)
     runs = group_runs(infos, groups, tests, joint)
     results = identify_runs([[t.path for t in run] for run in runs], chosen, resolved, settings, jobs, progress)
     document = results_document(chosen.name, results, str(infos[0].attrs.get("campaign", "")),
