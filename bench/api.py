@@ -104,7 +104,7 @@ def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path |
 def list_traces(folder: str | Path) -> dict[str, Any]:
     """What a campaign folder holds: status summary, truth presence, tests
     with their trace files, sampling (s) and channels."""
-    from structbench.harness.listing import listing
+    from structbench.dispatch.listing import listing
     return listing(Path(folder))
 
 

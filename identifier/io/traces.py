@@ -278,6 +278,28 @@ def read_info(path: str | Path) -> TraceInfo:
         raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
 
 
+def read_contents(path: str | Path) -> dict[str, Any]:
+    """What one trace file holds, without its samples: test, repetition,
+    ``dt`` (s), sample count and duration (s), channel names, the excitation's
+    kind and ``omega`` (rad/s, harmonic tests) and the lab file it was
+    imported from (``source``, if any); errors as :func:`read_trace`."""
+    path = Path(path)
+    try:
+        with h5py.File(path, "r") as f:
+            attrs = _root_attrs(f, path.name)
+            time = f["time"]
+            span = (float(time[-1] - time[0]) if time.shape[0] else 0.0) if time.ndim == 1 else 0.0
+            excitation = _excitation_attrs(f, path.name) if "excitation" in f else {}
+            info = TraceInfo(path, attrs)
+            return {"file": path.name, "test": info.test, "repetition": info.repetition,
+                    "dt": _number(attrs.get("dt", 0.0), path.name, "dt"), "samples": int(time.shape[0]),
+                    "duration": span, "channels": list(f["channels"]),
+                    "excitation": str(excitation.get("kind", "")), "omega": excitation.get("omega")} | (
+                {"source": str(attrs["source"])} if "source" in attrs else {})
+    except (OSError, KeyError, RuntimeError) as err:  # h5py's errors on damaged files
+        raise IdentificationError(f"cannot read trace file: {err}", field=str(path)) from None
+
+
 def trace_files(source: str | Path | list[str | Path]) -> list[Path]:
     """``DIR/traces/*.h5`` of a campaign folder, ``DIR/*.h5``, or the given files."""
     if isinstance(source, (str, Path)) and Path(source).is_dir():

@@ -8,29 +8,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import h5py
-
+from structbench.identifier.io.traces import read_contents, read_info
 from structbench.models.errors import UserError
-
-
-def trace_summary(path: Path) -> dict:
-    """A trace file's test, repetition, sampling and channels (from its attributes)."""
-    with h5py.File(path, "r") as f:
-        time = f["time"]
-        excitation = f.get("excitation")
-        return {"file": path.name, "test": str(f.attrs["test"]), "repetition": int(f.attrs["repetition"]),
-                "dt": float(f.attrs["dt"]), "samples": int(time.shape[0]),
-                "duration": float(time[-1] - time[0]) if time.shape[0] else 0.0,
-                "channels": list(f["channels"]),
-                "excitation": str(excitation.attrs.get("kind", "")) if excitation is not None else "",
-                "omega": float(excitation.attrs["omega"]) if excitation is not None and "omega" in excitation.attrs
-                else None} | ({"source": str(f.attrs["source"])} if "source" in f.attrs else {})
-
-
-def _names(path: Path) -> dict[str, str]:
-    """A trace file's campaign and structure names (root attributes)."""
-    with h5py.File(path, "r") as f:
-        return {key: str(f.attrs.get(key, "")) for key in ("campaign", "structure")}
 
 
 def listing(folder: Path) -> dict:
@@ -43,7 +22,7 @@ def listing(folder: Path) -> dict:
     tests: dict[str, dict] = {}
     sources: set[str] = set()  # the lab files of an imported folder
     for path in traces:
-        info = trace_summary(path)
+        info = read_contents(path)
         if "source" in info:
             sources.add(info["source"])
         entry = tests.setdefault(info["test"], {**info, "files": 0})
@@ -52,9 +31,9 @@ def listing(folder: Path) -> dict:
         tests.setdefault(name, {"test": name, "files": 0})
         tests[name] |= {"state": st["state"], "expected": len(st["traces"]), "error": st["error"]}
     imported = not status and not (folder / "campaign.toml").exists() and bool(sources)
-    names = _names(traces[0]) if traces and not status else {}  # no status.json: the traces say
-    return {"folder": str(folder), "campaign": status.get("campaign", names.get("campaign", "")),
-            "structure": status.get("structure", names.get("structure", "")),
+    names = read_info(traces[0]).attrs if traces and not status else {}  # no status.json: the traces say
+    return {"folder": str(folder), "campaign": status.get("campaign", str(names.get("campaign", ""))),
+            "structure": status.get("structure", str(names.get("structure", ""))),
             "fmu_sha256": status.get("fmu_sha256", ""), "truth": (folder / "truth.json").exists(),
             "bytes": sum(p.stat().st_size for p in traces), "summary": status.get("summary", {}),
             "imported": imported, "sources": sorted(sources), "tests": list(tests.values())}
