@@ -1,7 +1,6 @@
 """The reproduction report: ``OUT/report.md`` with PNG figures beside it."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -12,12 +11,9 @@ from structbench.models import load_model
 
 from . import beyond_modal, plots
 from .reproduce import PUBLISHED, STEPS
+from .truth_checks import read_truth
 
 UNITS = {"mass": "kg/m", "stiffness": "N/m"}
-
-
-def _truth(folder: Path) -> dict[str, Any]:
-    return json.loads((folder / "truth.json").read_text())
 
 
 def _by_kind(labels: list[str], values: np.ndarray) -> dict[str, np.ndarray]:
@@ -30,7 +26,7 @@ def ch3_figure(out: Path, tag: str) -> Path:
     folder = out / "ch3"
     _, runs = read_results(folder / "results" / f"least-squares-{tag}.json")
     labels = runs[0].labels()
-    table = {p["label"]: p["value"] for p in _truth(folder)["parameters"]}
+    table = {p["label"]: p["value"] for p in read_truth(folder / "truth.json")["parameters"]}
     truth = _by_kind(labels, np.array([table[label] for label in labels]))
     estimates = _by_kind(labels, np.array([r.values() for r in runs]))
     return plots.parameter_distribution(out / f"ch3-parameters-{tag}.png",
@@ -54,7 +50,7 @@ def _shapes(folder: Path, stem: str) -> tuple[np.ndarray, np.ndarray]:
     """Identified shapes of run 0 and the true ones at the same sensors, (n_s, n_modes)."""
     _, runs = read_results(folder / "results" / f"{stem}.json")
     run = runs[0]
-    truth = _truth(folder)
+    truth = read_truth(folder / "truth.json")
     rows = {tuple(d): i for i, d in enumerate(truth["sensor_dofs"])}
     pick = [rows[(int(c.split("_")[1]), c.split("_", 2)[2])] for c in run.sensors]
     ident = np.array(run.mode_shapes).T
