@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
            "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce",
-           "reproduce_table", "results_file", "run_campaign", "score"]
+           "reproduce_table", "results_file", "run_campaign", "score", "write_junit"]
 
 # Names this module passes on from the subpackages, imported on first use
 # (module __getattr__): each call below imports what it needs when it runs,
@@ -137,11 +137,20 @@ def score(campaign_dir: str | Path) -> dict[str, Any]:
     return score_campaign(campaign_dir)
 
 
-def check(campaign_dir: str | Path) -> list[dict[str, Any]]:
+def check(campaign_dir: str | Path, results: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """The campaign's ``[check]`` gates against its scores: one row per
-    (results file, gate) with ``value``, ``threshold`` and ``ok``."""
+    (results file, gate) with ``campaign``, ``results``, ``gate``, ``value``,
+    ``threshold`` and ``ok``; ``results``: only these results file stems."""
     from structbench.evaluation.gates import check_campaign
-    return check_campaign(campaign_dir)
+    return check_campaign(campaign_dir, results)
+
+
+def write_junit(rows: Sequence[dict[str, Any]], path: str | Path, time: float = 0.0) -> Path:
+    """Gate rows of :func:`check` as a JUnit XML report at ``path`` (one
+    test case per gate, a failure naming value, threshold and campaign);
+    ``time``: the check's duration (s)."""
+    from structbench.evaluation.junit import write_junit as write
+    return write(rows, path, time)
 
 
 def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, jobs: int | None = None,

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
 from structbench import api
@@ -11,10 +12,15 @@ HELP = "gate: exit 1 if the campaign's [check] thresholds are not met by its sco
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign_dir", type=Path, metavar="CAMPAIGN_DIR")
+    parser.add_argument("--junit-xml", type=Path, metavar="FILE",
+                        help="also write the gates as a JUnit XML report (one test case per gate) for CI servers")
 
 
 def run(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
     rows = api.check(args.campaign_dir)
+    if args.junit_xml is not None:
+        api.write_junit(rows, args.junit_xml, time.perf_counter() - start)
     for r in rows:
         print(f"{'PASS' if r['ok'] else 'FAIL'}  {r['results']:36s} {r['gate']:22s} "
               f"{r['value']:.4g} (threshold {r['threshold']:g})")

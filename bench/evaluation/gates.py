@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -84,22 +84,33 @@ def evaluate(check: Mapping[str, Any], scores: dict[str, Any]) -> list[dict[str,
     return rows
 
 
-def check_campaign(folder: str | Path) -> list[dict[str, Any]]:
+def check_campaign(folder: str | Path, results: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """Gate a campaign folder: its ``campaign.toml``'s ``[check]`` table
-    against the scores of its results (:func:`evaluate` rows)."""
+    against the scores of its results (:func:`evaluate` rows, each also
+    naming the ``campaign``); ``results``: only these results file stems
+    (e.g. ``["peaks-ci"]``), each of which must exist."""
     folder = Path(folder)
     copy = folder / "campaign.toml"
     if not copy.is_file():
         raise UserError(f"no campaign.toml in {folder}", field="CAMPAIGN_DIR")
     try:
-        check = tomllib.loads(copy.read_text()).get("check", {})
+        document = tomllib.loads(copy.read_text())
+        check = document.get("check", {})
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise UserError(f"not a readable campaign file: {err}", field=str(copy)) from None
     if not isinstance(check, dict):
         raise UserError(f"expected a table, got {check!r:.60}", field="check")
     if not check:
         raise UserError("the campaign file has no [check] table: nothing to gate on", field="check")
-    rows = evaluate(check, score_campaign(folder))
+    scores = score_campaign(folder)
+    if results is not None:
+        missing = sorted(set(results) - set(scores))
+        if missing:
+            raise UserError(f"no results file {missing[0]}.json in {folder / 'results'}", field="results")
+        scores = {stem: scores[stem] for stem in results}
+    rows = evaluate(check, scores)
     if not rows:
-        raise UserError("no [check] threshold applies to the results present", field="check")
-    return rows
+        which = f" {', '.join(results)}" if results is not None else " present"
+        raise UserError(f"no [check] threshold applies to the results{which}", field="check")
+    name = str(document.get("name", folder.name))
+    return [{"campaign": name} | row for row in rows]
