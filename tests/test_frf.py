@@ -237,3 +237,59 @@ def test_errors_name_the_file_and_channel(random_tests):
         estimate([trace(force, x)], "H3")
     with pytest.raises(IdentificationError, match="segment"):
         estimate([trace(force[:100], x[:, :100])], segment=10.0)
+
+
+# --- files, UFF 58, plot -----------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def two_dof_frf(random_tests):
+    _, force, x = random_tests["2dof"]
+    return estimate([trace(force, x)], "Hv", segment=2**10 * DT)
+
+
+def test_frf_file_round_trip_and_damage(two_dof_frf, tmp_path):
+    path = write_frf(tmp_path / "g.h5", two_dof_frf)
+    back = read_frf(path)
+    for name in ("frequency", "frf", "coherence", "random_error", "magnitude_band", "phase_band", "n_averages",
+                 "n_effective", "auto_force", "auto_response", "cross"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(two_dof_frf, name), err_msg=name)
+    assert back.responses == two_dof_frf.responses and back.force == two_dof_frf.force
+    for name in ("estimator", "analysis", "window", "segment", "overlap", "confidence", "dt", "spectra_scaling"):
+        assert getattr(back, name) == getattr(two_dof_frf, name), name
+    assert back.attrs["traces"] == ["t.h5"] and back.units == ["m/N", "m/N"]
+    import h5py
+    with h5py.File(path, "a") as f:
+        del f["coherence"]
+        f["coherence"] = np.zeros(3)
+    with pytest.raises(IdentificationError, match=r"g.h5: /coherence is float64 \(3,\), expected \(2, 513\)"):
+        read_frf(path)
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_uff58_type4_round_trip_through_pyuff(two_dof_frf, tmp_path, binary):
+    path = write_frf_uff58(tmp_path / "g.uff", two_dof_frf, binary=binary, source="g.h5")
+    sets = pyuff.UFF(str(path)).read_sets()
+    assert [s["func_type"] for s in sets] == [4, 6, 4, 6]
+    tol = 0 if binary else 1e-11
+    for i, r in enumerate(two_dof_frf.responses):
+        frf, coh = sets[2 * i], sets[2 * i + 1]
+        assert (frf["rsp_node"], frf["rsp_dir"], frf["ref_node"], frf["ref_dir"]) == (r.node, 3, 1, 3)
+        assert frf["ordinate_spec_data_type"] == 8 and frf["orddenom_spec_data_type"] == 13
+        assert frf["abscissa_spec_data_type"] == 18 and frf["id1"].startswith(f"Hv {r.name} / force_1_w")
+        np.testing.assert_allclose(frf["x"], two_dof_frf.frequency, rtol=1e-12 if binary else 1e-5)  # ASCII: E13.5
+        np.testing.assert_allclose(frf["data"], two_dof_frf.frf[i], rtol=tol, atol=0)
+        np.testing.assert_allclose(coh["data"], two_dof_frf.coherence[i], rtol=tol, atol=1e-300)
+
+
+def test_plot_has_magnitude_phase_and_coherence_axes_with_the_frf_data(two_dof_frf, tmp_path):
+    import matplotlib
+    backend = matplotlib.get_backend()
+    fig = figure(two_dof_frf)
+    mag, phase, coh = fig.axes
+    assert len(fig.axes) == 3 and matplotlib.get_backend() == backend
+    for i in range(2):
+        np.testing.assert_array_equal(mag.lines[i].get_xdata(), two_dof_frf.frequency)
+        np.testing.assert_array_equal(mag.lines[i].get_ydata(), np.abs(two_dof_frf.frf[i]))
+        np.testing.assert_array_equal(phase.lines[i].get_ydata(), np.degrees(np.angle(two_dof_frf.frf[i])))
+        np.testing.assert_array_equal(coh.lines[i].get_ydata(), two_dof_frf.coherence[i])
+    assert mag.get_yscale() == "log" and "coherence" in coh.get_ylabel() and "deg" in phase.get_ylabel()

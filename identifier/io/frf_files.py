@@ -188,7 +188,7 @@ def _attr(value: Any) -> Any:
     """An attribute as Python data: JSON lists and objects decoded."""
     if isinstance(value, (str, bytes)):
         text = _text(value)
-        return json.loads(text) if text[:1] in "[{" else text
+        return json.loads(text) if text[:1] in ("[", "{") else text
     return np.asarray(value).tolist()
 
 
