@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "export_traces", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes", "reproduce",
-           "reproduce_table", "results_file", "run_campaign", "score", "write_junit"]
+           "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes",
+           "reproduce", "reproduce_table", "results_file", "run_campaign", "score", "write_junit"]
 
 # Names this module passes on from the subpackages, imported on first use
 # (module __getattr__): each call below imports what it needs when it runs,
@@ -35,6 +35,7 @@ if TYPE_CHECKING:  # what static checkers see
     from structbench.harness.campaign import Campaign, load_campaign
     from structbench.harness.folder import CampaignStatus
     from structbench.harness.run import run_campaign
+    from structbench.identifier.frf.folder import FolderFrfs
     from structbench.models import DISSERTATION
     from structbench.models.errors import UserError
 
@@ -124,6 +125,20 @@ def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None 
     return document
 
 
+def frf(campaign_dir: str | Path, estimator: str = "H1", *, groups: Sequence[str] | None = None,
+        plot: bool = True, **options: Any) -> FolderFrfs:
+    """FRFs (``H1``, ``H2`` or ``Hv``) with coherence and confidence bands of
+    every test group of a campaign folder that has a force (random, impulse
+    and stepped-sine tests), written to ``DIR/frf/<group>.h5``
+    (docs/frf-format.md) with a plot ``DIR/frf/<group>.png``. ``options`` go
+    to :func:`structbench.identifier.frf.estimate` (``responses``, ``force``,
+    ``analysis``, ``segment`` s, ``overlap``, ``window``, ``blocks``,
+    ``confidence``). Returns a ``FolderFrfs``: ``frfs``, ``files``,
+    ``plots`` and ``skipped`` per group."""
+    from structbench.identifier.frf.folder import frf_folder
+    return frf_folder(campaign_dir, estimator, groups=groups, plot=plot, **options)
+
+
 def results_file(campaign_dir: str | Path, method: str, tag: str | None = None) -> Path:
     """Where :func:`identify` writes: ``CAMPAIGN_DIR/results/<method>[-<tag>].json``."""
     from structbench.identifier.io.results import result_path
@@ -191,6 +206,15 @@ def export_traces(campaign_dir: str | Path, fmt: str, out: str | Path, binary: b
     """A campaign's traces as ``uff58`` (binary, or ASCII with
     ``binary=False``), ``csv`` or ``sep005`` files in ``out``, one per trace,
     with ``out/sensor-map.toml``; ``import_data(files, ..., map_file=that map)``
-    gives the traces back. Returns the data files."""
+    gives the traces back. ``uff58`` also writes the FRFs of :func:`frf`
+    (``DIR/frf/*.h5``), if any, as ``out/frf/<group>.uff`` (function type 4,
+    docs/labdata.md). Returns the data files."""
     from structbench.labdata.exporter import export_traces as export
-    return export(campaign_dir, fmt, out, binary)
+    written = export(campaign_dir, fmt, out, binary)
+    if fmt == "uff58":
+        from structbench.identifier.frf.folder import frf_files
+        from structbench.identifier.io.frf_files import read_frf
+        from structbench.labdata.frf_export import write_frf_uff58
+        written += [write_frf_uff58(Path(out) / "frf" / f"{p.stem}.uff", read_frf(p), binary, p.name)
+                    for p in frf_files(campaign_dir)]
+    return written

@@ -293,3 +293,87 @@ def test_plot_has_magnitude_phase_and_coherence_axes_with_the_frf_data(two_dof_f
         np.testing.assert_array_equal(phase.lines[i].get_ydata(), np.degrees(np.angle(two_dof_frf.frf[i])))
         np.testing.assert_array_equal(coh.lines[i].get_ydata(), two_dof_frf.coherence[i])
     assert mag.get_yscale() == "log" and "coherence" in coh.get_ylabel() and "deg" in phase.get_ylabel()
+
+
+# --- CLI and API on a campaign folder ------------------------------------------------------------------
+
+FRAME = Path(__file__).resolve().parents[1] / "docs" / "examples" / "shear-frame-3.toml"
+CAMPAIGN = f'''
+name = "frf-frame"
+structure = "{FRAME}"
+seed = 5
+
+[[tests]]
+name = "random"
+dt = 0.01
+duration = 160.0
+noise = {{sensor = {{acceleration = 0.01, force = 0.01}}, mode = "rms"}}
+excitation = [{{kind = "random", node = 3, dir = "x", rms = 1000.0, band = [0.0, 300.0]}}]
+sensors = [{{nodes = "all", quantities = ["acceleration"]}}, {{nodes = [3], quantities = ["force"]}}]
+
+[[tests]]
+name = "sine"
+dt = 0.01
+excitation = [{{kind = "stepped-sine", node = 3, dir = "x", amplitude = 1000.0, omegas = [10.0, 30.0], ramp = 2.0, settle = 10.0, window = 8.0}}]
+sensors = [{{nodes = "all", quantities = ["displacement"]}}]
+
+[[tests]]
+name = "free"
+dt = 0.01
+duration = 2.0
+excitation = [{{kind = "initial", node = 3, dir = "x", displacement = 0.01}}]
+sensors = [{{nodes = "all", quantities = ["displacement"]}}]
+'''
+
+
+@pytest.fixture(scope="module")
+def frame_folder(tmp_path_factory) -> Path:
+    from e2e_fixtures import run
+    base = tmp_path_factory.mktemp("frf-campaign")
+    (base / "frf.toml").write_text(CAMPAIGN)
+    return run(base / "frf.toml", base / "out", fmu_dir=base / "fmus")
+
+
+def model_frf(dt: float, frequency: np.ndarray, quantity: str) -> np.ndarray:
+    """The shear frame's sampled-data FRF per force at node 3 (3, m): ZOH of the model."""
+    from structbench.models import load_model
+    ss = load_model(str(FRAME)).state_space()
+    ad, bd = ss.discretize(dt)
+    out, feed = {"acceleration": (ss.Ca, ss.Da), "displacement": (ss.Cd, 0 * ss.Da)}[quantity]
+    z = np.exp(2j * np.pi * frequency * dt)
+    h = np.stack([out @ np.linalg.solve(zz * np.eye(ad.shape[0]) - ad, bd) + feed for zz in z])
+    return h[:, :, 2].T
+
+
+def test_cli_and_api_write_frfs_that_match_the_model(frame_folder, tmp_path, capsys):
+    import structbench as sb
+    from structbench.cli import main
+
+    assert main(["frf", str(frame_folder), "--estimator", "H1", "--segment", "20.48"]) == 0
+    printed = capsys.readouterr().out
+    assert "random: H1 of 3 response(s) per force_3_x, welch" in printed and "free: skipped" in printed
+    random = read_frf(frame_folder / "frf" / "random.h5")
+    assert (frame_folder / "frf" / "random.png").stat().st_size > 10_000
+    assert [r.name for r in random.responses] == ["acceleration_1_x", "acceleration_2_x", "acceleration_3_x"]
+    assert random.units == ["(m/s^2)/N"] * 3 and random.segment == 2048
+    good = (random.coherence >= 0.99) & (random.frequency > 1.0) & (random.frequency < 40.0)
+    mag, phase = log_errors(random.frf, model_frf(0.01, random.frequency, "acceleration"))
+    assert good.sum() > 500 and np.median(np.abs(mag[good])) < 0.01 and np.median(np.abs(phase[good])) < 1.0
+
+    done = sb.frf(frame_folder, "H2", groups=["sine"], plot=False)
+    sine = done.frfs["sine"]
+    assert list(done.files) == ["sine"] and not done.plots and sine.analysis == "harmonic"
+    np.testing.assert_allclose(sine.omega, [10.0, 30.0])
+    assert sine.force.name == "force_3_x" and sine.units == ["m/N"] * 3  # the commanded force (no load cell)
+    mag, phase = log_errors(sine.frf, model_frf(0.01, sine.frequency, "displacement"))
+    assert np.max(np.abs(mag)) < 0.01 and np.max(np.abs(phase)) < 1.0
+
+    with pytest.raises(IdentificationError, match="no force"):
+        sb.frf(frame_folder, groups=["free"])
+    assert main(["frf", str(frame_folder), "--group", "nothing"]) == 2
+    assert "no test group 'nothing'" in capsys.readouterr().err
+
+    files = sb.export_traces(frame_folder, "uff58", tmp_path / "lab")
+    frf_sets = pyuff.UFF(str(tmp_path / "lab" / "frf" / "random.uff")).read_sets()
+    assert tmp_path / "lab" / "frf" / "sine.uff" in files and [s["func_type"] for s in frf_sets] == [4, 6] * 3
+    np.testing.assert_allclose(frf_sets[4]["data"], random.frf[2], rtol=0, atol=0)
