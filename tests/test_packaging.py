@@ -47,7 +47,7 @@ def test_only_structbench_is_installed_at_top_level(venv):
     packages = sorted(str(p.parent.relative_to(site)) for p in site.rglob("__init__.py"))
     assert packages == ["structbench", "structbench/campaigns", "structbench/cli", "structbench/dispatch",
                         "structbench/evaluation", "structbench/fmus", "structbench/harness", "structbench/identifier",
-                        "structbench/identifier/io", "structbench/identifier/least_squares",
+                        "structbench/identifier/frf", "structbench/identifier/io", "structbench/identifier/least_squares",
                         "structbench/identifier/modal", "structbench/identifier/modal/close_pairs",
                         "structbench/identifier/modal/ssi", "structbench/identifier/perturbation",
                         "structbench/identifier/rayleigh", "structbench/labdata", "structbench/models"]
