@@ -201,3 +201,50 @@ def test_a_damaged_entry_is_simulated_again(cached, tmp_path, monkeypatch):
     made.clear()
     cached_campaign(campaign, copy, jobs=0)
     assert made == []
+
+
+def titled_blocks(document: Path) -> dict[str, str]:
+    """The fenced blocks of a Markdown file that name their file (```sh title=ci.sh)."""
+    return {m[1]: m[2] for m in re.finditer(r"^```\w+ title=(\S+)\n(.*?)^```$", document.read_text(), re.M | re.S)}
+
+
+def test_the_ci_doc_runs_as_written(tmp_path):
+    """docs/ci.md: the plugin project with its campaign, test and CI script;
+    two CI runs, each in a fresh copy of the project and a fresh Python
+    site for the plugin, the cache folder carried from the first to the
+    second. FMU steps are counted through a conftest.py beside the test,
+    with the campaign run in the test process (PYTEST_ADDOPTS)."""
+    blocks = titled_blocks(ROOT / "docs" / "ci.md")
+    assert sorted(blocks) == ["ci.sh", "frame.toml", "test_frame_gates.py"]
+    project = tmp_path / "project"
+    shutil.copytree(ROOT / "docs" / "examples" / "structbench-peaks", project,
+                    ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
+    shutil.copy(ROOT / "docs" / "examples" / "shear-frame-3.toml", project)
+    for name, text in blocks.items():
+        (project / name).write_text(text)
+    (project / "conftest.py").write_text(COUNTING_CONFTEST)
+
+    def ci_run(n: int) -> tuple[subprocess.CompletedProcess, Path, Path]:
+        checkout, site, steps = tmp_path / f"run-{n}", tmp_path / f"site-{n}", tmp_path / f"steps-{n}"
+        shutil.copytree(project, checkout, ignore=shutil.ignore_patterns(".structbench-cache"))
+        if n > 1:  # the CI's cache step restores the folder
+            shutil.copytree(tmp_path / f"run-{n - 1}" / ".structbench-cache", checkout / ".structbench-cache")
+        environment = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "STRUCTBENCH_", "PIP_"))}
+        environment |= {"PIP_TARGET": str(site), "PIP_NO_DEPS": "1", "PIP_NO_BUILD_ISOLATION": "0",
+                        "PYTHONPATH": str(site), "PYTEST_ADDOPTS": "--structbench-jobs 0", "FMU_STEPS": str(steps),
+                        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+        done = subprocess.run(["sh", "ci.sh"], cwd=checkout, env=environment, capture_output=True, text=True,
+                              timeout=600)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert re.search(r"^2 passed", done.stdout, re.M), done.stdout
+        report = (checkout / "reports" / "gates.xml").read_text()
+        assert report.count("<testcase ") == 2 and 'failures="0"' in report
+        return done, checkout / ".structbench-cache", steps
+
+    _, cache, steps = ci_run(1)
+    assert steps.read_text().split() == ["15001"]  # 0 to 30 s at 2 ms
+    assert (site := tmp_path / "site-1").is_dir() and list(site.glob("structbench_peaks*"))
+    before = snapshot(cache)
+    _, restored, steps = ci_run(2)
+    assert not steps.exists()  # no FMU step: nothing simulated
+    assert {k: v[1:] for k, v in snapshot(restored).items()} == {k: v[1:] for k, v in before.items()}
