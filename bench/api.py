@@ -192,14 +192,15 @@ def reproduce_table(summary: dict[str, Any]) -> list[tuple[str, str, str]]:
 
 
 def import_data(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
-                name: str | None = None) -> list[Path]:
+                name: str | None = None, report: Callable[[str], None] | None = None) -> list[Path]:
     """Measured files (UFF 58 ASCII or binary ``.uff``/``.unv``, ``.csv``,
     SEP005 ``.json``) into the new trace folder ``out``: one trace per file,
     SI units from the files' unit fields, the sensor map (TOML) for what the
-    files lack, ``name`` the campaign name. Returns the trace files; a bad
-    file raises :class:`UserError` naming it and leaves no folder behind."""
+    files lack or what it overrides, ``name`` the campaign name. Returns the
+    trace files; a bad file raises :class:`UserError` naming it and leaves no
+    folder behind. ``report`` receives one line per channel the map overrides."""
     from structbench.labdata.importer import import_files
-    return import_files(files, out, map_file, name)
+    return import_files(files, out, map_file, name, report)
 
 
 def export_traces(campaign_dir: str | Path, fmt: str, out: str | Path, binary: bool = True) -> list[Path]:

@@ -22,6 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    written = api.import_data(args.files, args.out, args.map, args.name)
+    overrides: list[str] = []
+    written = api.import_data(args.files, args.out, args.map, args.name, overrides.append)
+    for line in overrides:
+        print(f"sensor map override: {line}")
     print(f"{len(written)} trace file(s) in {args.out / 'traces'}")
     return 0

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 import shutil
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ from structbench.harness.trace_writer import ChannelData, Trace, trace_bytes, wr
 from structbench.models.errors import UserError
 
 from .csv_files import read_csv
+from .overrides import Mapped, apply_map, duplicate_error
 from .sensor_map import UFF_DIRECTIONS, SensorMap, load_map
 from .sep005 import read_sep005
 from .signals import Signal, parse_name, uniform_dt
@@ -41,7 +42,8 @@ def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
     if record.abscissa.data_type not in (0, 1, 17):
         raise UserError(f"abscissa data type {record.abscissa.data_type} is not time (17): no time axis",
                         field=f"{where} record 8")
-    time = record.x * time_factor(record.abscissa.units or "s", f"{where} record 8")
+    factor = time_factor(record.abscissa.units or "s", f"{where} record 8")
+    time = record.x if factor == 1.0 else record.x * factor
     code = abs(record.direction)
     direction = smap.direction(UFF_DIRECTIONS[code - 1]) if 1 <= code <= 6 else None
     named = parse_name(record.id_lines[0])
@@ -65,9 +67,8 @@ def read_signals(path: Path, smap: SensorMap) -> list[Signal]:
     raise UserError(f"unknown file type {suffix!r}: .uff/.unv (UFF 58), .csv or .json (SEP005)", field=path.name)
 
 
-def _channel(signal: Signal, smap: SensorMap, time: np.ndarray) -> tuple[str, ChannelData]:
-    entry = smap.channel(signal)
-    s = signal.filled(**{k: entry.get(k) for k in ("quantity", "node", "direction", "unit")})
+def _channel(mapped: Mapped, time: np.ndarray) -> tuple[str, ChannelData]:
+    s, entry = mapped.signal, mapped.entry
     missing = [k for k in ("unit", "node", "direction") if getattr(s, k) is None]
     if missing:
         raise UserError(f"channel {s.key!r} has no {', '.join(missing)}: give them in the sensor map", field=s.source)
@@ -78,32 +79,37 @@ def _channel(signal: Signal, smap: SensorMap, time: np.ndarray) -> tuple[str, Ch
     if unit.rotation != (s.direction in ROTATIONS):
         raise UserError(f"channel {s.key!r}: unit {s.unit!r} does not fit direction {s.direction!r}",
                         field=s.source)
-    if s.data.shape != time.shape or not np.array_equal(s.time, time):
+    if s.time is not time and (s.data.shape != time.shape or not np.array_equal(s.time, time)):
         raise UserError(f"channel {s.key!r} is not sampled at the file's first channel's times", field=s.source)
     factor = unit.factor * s.sign
     data = s.data if factor == 1.0 else s.data * factor
     group = "excitation" if entry.get("excitation", s.group == "excitation") else "channels"
-    attrs = {"source": s.source, "source_unit": unit.label, "si_factor": factor, "sign": s.sign}
+    attrs = {"source": s.source, "source_unit": unit.label, "si_factor": factor, "sign": s.sign} | mapped.attrs()
     return group, ChannelData(Channel(quantity, int(s.node), str(s.direction)), data,
                               tuple(entry.get("location", (np.nan, np.nan, np.nan))),
                               float(entry.get("noise_ratio", 0.0)), str(entry.get("noise_mode", "rms")), attrs)
 
 
-def build_trace(path: Path, smap: SensorMap, campaign: str) -> Trace:
-    """The trace of one file."""
+def build_trace(path: Path, smap: SensorMap, campaign: str,
+                report: Callable[[str], None] | None = None) -> Trace:
+    """The trace of one file; ``report`` receives one line per channel the
+    sensor map overrides."""
     signals = read_signals(path, smap)
     time = signals[0].time
     dt = uniform_dt(time)
     if dt is None:
         raise UserError(f"channel {signals[0].key!r}: the time axis is not uniformly sampled", field=signals[0].source)
     groups: dict[str, list[ChannelData]] = {"channels": [], "excitation": []}
+    named = []
     for signal in signals:
-        group, data = _channel(signal, smap, time)
+        mapped = apply_map(signal, smap)
+        group, data = _channel(mapped, time)
         groups[group].append(data)
-    names = [f"{g}/{c.channel.name}" for g, members in groups.items() for c in members]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise UserError(f"channel(s) {twice} appear twice", field=path.name)
+        named.append((f"{group}/{data.channel.name}", mapped))
+        if mapped.changed and report is not None:
+            report(mapped.note())
+    if len({n for n, _ in named}) < len(named):
+        raise duplicate_error(path.name, named)
     test = smap.test(path.name)
     name = str(test.get("test", path.stem))
     return Trace(campaign, name, str(test.get("group", name)), int(test.get("repetition", 0)), smap.structure or "",
@@ -113,9 +119,10 @@ def build_trace(path: Path, smap: SensorMap, campaign: str) -> Trace:
 
 
 def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
-                 name: str | None = None) -> list[Path]:
+                 name: str | None = None, report: Callable[[str], None] | None = None) -> list[Path]:
     """Import ``files`` into the new folder ``out`` (``out/traces/*.h5``);
-    returns the trace files written (``<file name without suffix>.h5``)."""
+    returns the trace files written (``<file name without suffix>.h5``).
+    ``report`` receives one line per channel whose fields the sensor map overrides."""
     out = Path(out)
     if not files:
         raise UserError("no input files", field="FILE")
@@ -123,7 +130,7 @@ def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | P
         raise UserError("exists and is not empty; import into a new folder", field="--out")
     smap = load_map(map_file)
     campaign = name or smap.campaign or out.name
-    traces = [build_trace(Path(f), smap, campaign) for f in files]
+    traces = [build_trace(Path(f), smap, campaign, report) for f in files]
     stems = [Path(f).stem for f in files]
     if len(set(stems)) < len(stems):
         raise UserError("two input files have the same name (without suffix)", field="FILE")

@@ -6,13 +6,15 @@
     [directions]                   # UFF direction codes x y z rx ry rz -> the model's names
     z = "w"
 
-    [[channels]]                   # matched by `name` (CSV header, SEP005 name, UFF ID line 1)
-    name = "acc7"                  #   or else by `node` + `direction`
+    [[channels]]                   # matched by `name` (CSV header, SEP005 name, UFF ID line 1),
+    name = "acc7"                  #   or by `dataset` (and `file`), or else by `node` + `direction`
     file = "run*.csv"              # optional: only files matching this shell pattern
+    dataset = 4                    # UFF dataset / CSV column / SEP005 channel number, from 1
     quantity = "acceleration"      # displacement | velocity | acceleration | force
     node = 7
     direction = "w"
     unit = "g"                     # the file's unit; converted to SI
+    sign = -1                      # -1: the sensor points along the negative axis
     location = [0.7, 0.0, 0.0]     # m
     noise_ratio = 0.01             # declared sensor noise (trace format)
     noise_mode = "rms"
@@ -28,8 +30,9 @@
     excitation = {omega = 12.5, window_start = 4.0}   # /excitation attributes
     noise = {}                                         # /noise attributes
 
-Values the file gives win over the map's (`quantity`, `node`, `direction`,
-`unit`); `location`, `noise_ratio`, `noise_mode` and `excitation` come
+Values the map gives override the file's (`quantity`, `node`, `direction`,
+`unit`, `sign`: :data:`OVERRIDES`), so a mislabelled channel is repaired by
+its entry; `location`, `noise_ratio`, `noise_mode` and `excitation` come
 from the map only. :func:`map_text` writes a map that :func:`load_map` reads.
 """
 from __future__ import annotations
@@ -50,8 +53,9 @@ from structbench.models.channels import QUANTITIES
 
 from .signals import Signal
 
-CHANNEL_KEYS = {"name", "file", "quantity", "node", "direction", "unit", "location", "noise_ratio", "noise_mode",
-                "excitation"}
+CHANNEL_KEYS = {"name", "file", "dataset", "quantity", "node", "direction", "unit", "sign", "location",
+                "noise_ratio", "noise_mode", "excitation"}
+OVERRIDES = ("quantity", "node", "direction", "unit", "sign")  # map values that replace the file's
 TEST_KEYS = {"file", "test", "group", "repetition", "step", "seed", "excitation", "noise"}
 TOP_KEYS = {"campaign", "structure", "directions", "channels", "tests"}
 UFF_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -71,17 +75,24 @@ class SensorMap:
         """The model's name of a UFF direction code (``x`` .. ``rz``)."""
         return self.directions.get(code, code)
 
-    def channel(self, signal: Signal) -> dict[str, Any]:
-        """The entry for ``signal``: by name, else by node and direction ({} if none)."""
-        mine = [c for c in self.channels if fnmatch(signal.file, c.get("file", "*"))]
-        for entry in mine:
-            if entry.get("name") == signal.key:
-                return entry
-        for entry in mine:
-            if ("name" not in entry and entry.get("node") == signal.node
+    def match(self, signal: Signal) -> tuple[int | None, dict[str, Any]]:
+        """The index in ``channels`` and the entry for ``signal`` ((None, {})
+        if none): by ``name`` and/or ``dataset`` (both must fit when both are
+        given), else, for an entry with neither, by the file's node and direction."""
+        mine = [(i, c) for i, c in enumerate(self.channels) if fnmatch(signal.file, c.get("file", "*"))]
+        for i, entry in mine:
+            if ("name" in entry or "dataset" in entry) and entry.get("name", signal.key) == signal.key \
+                    and entry.get("dataset", signal.dataset) == signal.dataset:
+                return i, entry
+        for i, entry in mine:
+            if ("name" not in entry and "dataset" not in entry and entry.get("node") == signal.node
                     and entry.get("direction") in (signal.direction, None)):
-                return entry
-        return {}
+                return i, entry
+        return None, {}
+
+    def channel(self, signal: Signal) -> dict[str, Any]:
+        """The entry for ``signal`` ({} if none), see :meth:`match`."""
+        return self.match(signal)[1]
 
     def test(self, file: str) -> dict[str, Any]:
         """The ``[[tests]]`` entry of a file ({} if none)."""
@@ -108,9 +119,16 @@ def load_map(path: str | Path | None) -> SensorMap:
     _check(data, TOP_KEYS, path.name)
     for i, entry in enumerate(data.get("channels", [])):
         _check(entry, CHANNEL_KEYS, f"{path.name} channels[{i}]")
+        where = f"{path.name} channels[{i}]"
         if entry.get("quantity", "force") not in QUANTITIES:
-            raise UserError(f"{entry['quantity']!r} is not one of {', '.join(QUANTITIES)}",
-                            field=f"{path.name} channels[{i}].quantity")
+            raise UserError(f"{entry['quantity']!r} is not one of {', '.join(QUANTITIES)}", field=f"{where}.quantity")
+        for key in ("dataset", "node"):
+            if key in entry and (not isinstance(entry[key], int) or isinstance(entry[key], bool) or entry[key] < 0):
+                raise UserError(f"{entry[key]!r} is not a non-negative integer", field=f"{where}.{key}")
+        if entry.get("sign", 1) not in (1, -1):
+            raise UserError(f"{entry['sign']!r} is neither 1 nor -1", field=f"{where}.sign")
+        if "sign" in entry:
+            entry["sign"] = float(entry["sign"])
     for i, entry in enumerate(data.get("tests", [])):
         _check(entry, TEST_KEYS, f"{path.name} tests[{i}]")
     bad = sorted(set(data.get("directions", {})) - set(UFF_DIRECTIONS))

@@ -37,6 +37,13 @@ class Signal:
     group: str | None = None
     sign: float = 1.0
 
+    @property
+    def dataset(self) -> int | None:
+        """The number in ``source`` (UFF dataset, CSV column, SEP005 channel,
+        counted from 1), which the sensor map's ``dataset`` matches."""
+        last = self.source.rsplit(" ", 1)[-1]
+        return int(last) if last.isdigit() else None
+
     def filled(self, **given: object) -> "Signal":
         """A copy with the fields that are None taken from ``given``."""
         return replace(self, **{k: v for k, v in given.items() if v is not None and getattr(self, k) is None})

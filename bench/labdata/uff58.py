@@ -79,6 +79,7 @@ class Record58:
 class _Reader:
     def __init__(self, path: Path):
         self.path, self.data, self.pos, self.index = path, path.read_bytes(), 0, 0
+        self.axes: dict[tuple[float, float, int], np.ndarray] = {}
 
     def fail(self, message: str, record: int | None = None) -> UserError:
         where = f"{self.path.name} dataset {self.index}" + (f" record {record}" if record else "")
@@ -92,6 +93,15 @@ class _Reader:
         text = self.data[self.pos:end].rstrip(b"\r").decode("latin-1")
         self.pos = end + 1
         return text
+
+    def even_axis(self, start: float, step: float, count: int) -> np.ndarray:
+        """``start + k step``, k < count: one shared (read-only) array per
+        distinct axis of the file, so channels on the same axis compare by identity."""
+        key = (start, step, count)
+        if key not in self.axes:
+            self.axes[key] = start + np.arange(count) * step
+            self.axes[key].flags.writeable = False
+        return self.axes[key]
 
     def at_end(self) -> bool:
         while self.pos < len(self.data) and self.data[self.pos:self.pos + 1] in b" \t\r\n":
@@ -144,14 +154,17 @@ def _ascii_values(reader: _Reader, chunk: bytes, widths: tuple[int, ...], count:
 
 
 def _binary_values(reader: _Reader, dtype: np.dtype, count: int) -> np.ndarray:
+    """The values as float64: a read-only view into the file's bytes when they
+    are native doubles (no copy), else converted."""
     size = count * dtype.itemsize
-    chunk = reader.data[reader.pos:reader.pos + size]
-    if len(chunk) < size:
-        raise reader.fail(f"holds {len(chunk)} of the {size} bytes that record 7 announces (truncated)", 12)
+    start = reader.pos
+    if len(reader.data) - start < size:
+        raise reader.fail(f"holds {len(reader.data) - start} of the {size} bytes that record 7 announces "
+                          "(truncated)", 12)
     reader.pos += size
     if reader.at_end() or reader.line(12).strip() != "-1":
         raise reader.fail(f"no closing '    -1' after the {size} bytes of binary data", 12)
-    return np.frombuffer(chunk, dtype=dtype).astype(np.float64)
+    return np.frombuffer(reader.data, dtype=dtype, count=count, offset=start).astype(np.float64, copy=False)
 
 
 def _record(reader: _Reader, type_line: str) -> Record58:
@@ -186,7 +199,7 @@ def _record(reader: _Reader, type_line: str) -> Record58:
         width = _WIDTH[ordinate_type]
         widths = (width,) if even else (13, width)
         columns = _ascii_values(reader, chunk, widths, count)
-    x = start + np.arange(count) * step if even else columns[0]
+    x = reader.even_axis(start, step, count) if even else columns[0]
     return Record58(reader.index, ids, _int(reader, r6[0:5], 6, "function type"),
                     _int(reader, r6[41:51], 6, "response node"), _int(reader, r6[51:55], 6, "response direction"),
                     _int(reader, r6[66:76], 6, "reference node"), _int(reader, r6[76:80], 6, "reference direction"),
