@@ -1,13 +1,17 @@
-"""Tasks in a child process with a wall-clock limit, for Dask workers.
+"""Tasks in a child process, optionally with a wall-clock limit: the
+workers of the local pool and of Dask workers.
 
-A Dask worker runs tasks in threads, which cannot be stopped, and its
-process is daemonic, so it cannot start ``multiprocessing`` children either.
-:class:`Child` starts a Python that runs :func:`serve` (:data:`COMMAND`)
-with :mod:`subprocess` instead: the child receives ``(function, args)``
-pickled over a pipe, runs it and sends back the result, keeping its module
-state (the warm FMU instance) between tasks, and exits when the pipe closes.
-A task over its limit is stopped by killing the child; a child that dies
-(an FMU that crashes its host) is reported with its signal.
+:class:`Child` starts a Python that runs :func:`serve` (:data:`COMMAND`,
+with this process's ``sys.path``) with :mod:`subprocess`, not
+``multiprocessing``: it never imports the caller's ``__main__`` (a script
+without an ``if __name__ == "__main__":`` guard is not run again), changes
+no process-wide setting, and also works under a Dask worker, whose threads
+cannot be stopped and whose daemonic process cannot have ``multiprocessing``
+children. The child receives ``(function, args)`` pickled over a pipe, runs
+it and sends back the result, keeping its module state (the warm FMU
+instance) between tasks, and exits when the pipe closes. A task over its
+limit is stopped by killing the child; a child that dies (an FMU that
+crashes its host) is reported with its signal.
 """
 from __future__ import annotations
 
@@ -20,8 +24,10 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
-COMMAND = "import sys; from structbench.harness.child import serve; serve(int(sys.argv[1]), int(sys.argv[2]))"
+COMMAND = ("import sys; sys.path[:] = sys.argv[3:]; "
+           "from structbench.harness.child import serve; serve(int(sys.argv[1]), int(sys.argv[2]))")
 STARTUP_SECONDS = 300.0  # s, limit for the child to import structbench and say it is ready
+STOP_SECONDS = 30.0  # s, limit for an idle child to close what it opened and exit
 _CHILDREN: weakref.WeakSet[Child] = weakref.WeakSet()  # stopped at exit
 
 
@@ -39,7 +45,7 @@ class Child:
     def __init__(self) -> None:
         to_child, from_parent = os.pipe()
         to_parent, from_child = os.pipe()
-        self.process = subprocess.Popen([sys.executable, "-c", COMMAND, str(to_child), str(from_child)],
+        self.process = subprocess.Popen([sys.executable, "-c", COMMAND, str(to_child), str(from_child), *sys.path],
                                         pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL)
         os.close(to_child)
         os.close(from_child)
@@ -55,16 +61,16 @@ class Child:
     def alive(self) -> bool:
         return self.process.poll() is None
 
-    def call(self, fn: Callable[..., Any], args: tuple[Any, ...], timeout: float) -> Any:
+    def call(self, fn: Callable[..., Any], args: tuple[Any, ...], timeout: float | None) -> Any:
         """``fn(*args)`` in the child; raises :class:`TimedOut` after ``timeout``
-        s (killing the child), :class:`ChildDied`, or what ``fn`` raised."""
+        s (killing the child; None: no limit), :class:`ChildDied`, or what ``fn`` raised."""
         try:
             self.send.send((fn, args))
         except OSError:
             raise ChildDied(self._death()) from None
         return self._answer(timeout)
 
-    def _answer(self, timeout: float) -> Any:
+    def _answer(self, timeout: float | None) -> Any:
         if not self.recv.poll(timeout):
             self.close()
             raise TimedOut
@@ -80,6 +86,16 @@ class Child:
         code = self.process.wait()
         self.close()
         return f"crashed with signal {-code}" if code < 0 else f"the worker process exited with status {code}"
+
+    def stop(self) -> None:
+        """Let an idle child exit on its own (closing its FMU instances and
+        their extracted files); killed after :data:`STOP_SECONDS`."""
+        self.send.close()
+        try:
+            self.process.wait(STOP_SECONDS)
+        except subprocess.TimeoutExpired:
+            pass
+        self.close()
 
     def close(self) -> None:
         """Stop the child (killed: it may be hung in an FMU)."""
@@ -111,5 +127,8 @@ def serve(read_fd: int, write_fd: int) -> None:
             answer = (False, fn(*args))
         except Exception as err:  # noqa: BLE001 - handed to the parent (as text: it always pickles)
             answer = (True, RuntimeError(f"{type(err).__name__}: {err}"))
-        send.send(answer)
+        try:
+            send.send(answer)
+        except OSError:  # the parent is gone (killed): nobody to answer
+            return
 

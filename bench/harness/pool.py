@@ -1,20 +1,19 @@
 """Where a campaign's tasks run: local worker processes (warm pool, one FMU
 instance per worker, reset between tests) or an existing Dask cluster, and
-the worker-side entry point :func:`trace_task`.
+the worker-side entry point :func:`trace_task`. Either way a task runs in a
+:class:`.child.Child`, a Python started by :mod:`subprocess` that never
+imports the caller's ``__main__``.
 """
 from __future__ import annotations
 
 import atexit
 import dataclasses
-import multiprocessing
-import multiprocessing.util
 import os
-import signal
+import queue
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +35,6 @@ def _close_all() -> None:
 
 
 atexit.register(_close_all)
-multiprocessing.util.Finalize(None, _close_all, exitpriority=10)  # pool workers skip atexit
 
 
 def _fmu_file(bench: Bench, blob: bytes | None) -> str:
@@ -98,20 +96,27 @@ def guarded_trace_task(bench: Bench, test: TestSpec, repetitions: list[int], rec
 # ---- pools -----------------------------------------------------------------
 class LocalPool:
     """``jobs`` worker processes (0: run in this process, without time
-    limit). Workers write trace files themselves."""
+    limit). Workers write trace files themselves.
+
+    Each worker is a thread of this process driving its own
+    :class:`.child.Child`, started on the thread's first task and kept warm.
+    A child that dies fails only its own task, with its signal or exit code
+    (:meth:`death`); :meth:`restart` kills the children running a task."""
 
     writes_files = True
     entry = staticmethod(trace_task)  # what runs a task on a worker
 
     def __init__(self, jobs: int):
         self.jobs = jobs
-        self._executor = self._start() if jobs > 0 else None
-        self._workers: dict[int, multiprocessing.Process] = {}
-
-    def _start(self) -> ProcessPoolExecutor:
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["structbench.harness.simulation", "structbench.harness.fmu_session"])
-        return ProcessPoolExecutor(self.jobs, mp_context=context)
+        self._tasks: queue.SimpleQueue[tuple[Future, int, Callable, tuple] | None] = queue.SimpleQueue()
+        self._lock = threading.Lock()
+        self._generation = 0         # bumped by restart: older tasks not yet started never start
+        self._busy: set[Child] = set()  # children running a task
+        self._failure = "the worker process died"
+        self._threads = [threading.Thread(target=self._work, name=f"structbench-worker-{i}", daemon=True)
+                         for i in range(jobs)]
+        for thread in self._threads:
+            thread.start()
 
     @property
     def size(self) -> int:
@@ -120,50 +125,66 @@ class LocalPool:
     @property
     def can_stop(self) -> bool:
         """Whether :meth:`restart` can stop a task that runs too long."""
-        return self._executor is not None
+        return self.jobs > 0
 
     def submit(self, fn: Callable, *args: Any) -> Future:
-        if self._executor is None:
-            future: Future = Future()
+        future: Future = Future()
+        if self.jobs == 0:
             future.set_result(fn(*args))
-            return future
-        try:
-            future = self._executor.submit(fn, *args)
-        except BrokenProcessPool:  # a worker died (e.g. the FMU crashed it): start afresh
-            self.restart()
-            future = self._executor.submit(fn, *args)
-        # the executor's own table of worker processes (kept to read exit codes)
-        self._workers = self._executor._processes  # type: ignore[attr-defined]
+        else:
+            self._tasks.put((future, self._generation, fn, args))
         return future
+
+    def _work(self) -> None:
+        """A worker thread: each task in this thread's child, started when
+        there is none or it died; the child exits when the pool closes."""
+        child: Child | None = None
+        while (item := self._tasks.get()) is not None:
+            future, generation, fn, args = item
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                if child is None or not child.alive:
+                    if child is not None:
+                        child.close()
+                    child = Child()
+                future.set_result(self._call(child, generation, fn, args))
+            except Exception as err:  # noqa: BLE001 - the child died (ChildDied) or could not start
+                with self._lock:
+                    if generation == self._generation:
+                        self._failure = str(err)
+                future.set_exception(err)
+        if child is not None and child.alive:
+            child.stop()
+
+    def _call(self, child: Child, generation: int, fn: Callable, args: tuple) -> Any:
+        """``fn(*args)`` in ``child``, unless :meth:`restart` came since the task was submitted."""
+        with self._lock:
+            if generation != self._generation:
+                raise ChildDied("the workers were restarted")
+            self._busy.add(child)
+        try:
+            return child.call(fn, args, None)
+        finally:
+            with self._lock:
+                self._busy.discard(child)
 
     def wait(self, futures: Iterable[Future], timeout: float | None = None) -> set[Future]:
         return wait(list(futures), timeout=timeout, return_when=FIRST_COMPLETED).done
 
     def death(self) -> str:
-        """Why a worker process died: the signal or exit code of the one that
-        did not die by the pool's own hand. Read once the pool's own thread
-        has reaped its workers: it fails the futures first and joins the
-        processes after, and a forkserver process polled from two threads at
-        once can lose its status to the other and report 255 (a segfault
-        was reported as "exited with status 255" in one run of six)."""
-        if self._executor is not None:
-            self._executor.shutdown(wait=True)
-        codes = [p.exitcode for p in list(self._workers.values()) if p.exitcode not in (None, -signal.SIGTERM)]
-        if not codes:
-            return "the worker process died"
-        code = codes[0]
-        return f"crashed with signal {-code}" if code < 0 else f"the worker process exited with status {code}"
+        """Why the last task failed: the signal or exit status of its child
+        (``crashed with signal 11``), read by the thread that owned it."""
+        return self._failure
 
     def restart(self) -> None:
-        """Kill every worker (a task hangs, or one died) and start afresh."""
-        if self._executor is None:
-            return
-        for process in list(self._workers.values()):
-            if process.exitcode is None:
-                process.kill()
-        self._executor.shutdown(wait=True, cancel_futures=True)
-        self._executor = self._start()
-        self._workers = {}
+        """Kill the children running a task (one hangs); tasks submitted
+        before never start. Idle children stay warm."""
+        with self._lock:
+            self._generation += 1
+            for child in self._busy:
+                child.process.kill()
+                child.process.wait()
 
     def share(self, obj: Any) -> Any:
         return obj
@@ -173,8 +194,12 @@ class LocalPool:
         return None
 
     def close(self) -> None:
-        if self._executor is not None:
-            self._executor.shutdown(wait=True, cancel_futures=True)
+        """Stop the workers: a running task is killed, idle children exit on their own."""
+        self.restart()
+        for _ in self._threads:
+            self._tasks.put(None)
+        for thread in self._threads:
+            thread.join()
 
 
 class DaskPool:
