@@ -314,8 +314,17 @@ sensors = [{{nodes = "all", quantities = ["acceleration"]}}, {{nodes = [3], quan
 [[tests]]
 name = "sine"
 dt = 0.01
-excitation = [{{kind = "stepped-sine", node = 3, dir = "x", amplitude = 1000.0, omegas = [10.0, 30.0], ramp = 2.0, settle = 10.0, window = 8.0}}]
 sensors = [{{nodes = "all", quantities = ["displacement"]}}]
+
+[[tests.excitation]]
+kind = "stepped-sine"
+node = 3
+dir = "x"
+amplitude = 1000.0
+omegas = [10.0, 30.0]
+ramp = 2.0
+settle = 10.0
+window = 8.0
 
 [[tests]]
 name = "free"

@@ -170,7 +170,8 @@ def _products(traces: Sequence[Trace], analysis: str, force_name: str, names: li
         for t in traces:
             keep = t.time >= float(t.excitation_attrs.get("window_start", t.time[0]))
             if keep.sum() < 4:
-                raise IdentificationError(f"{t.path.name}: fewer than 4 samples after window_start", field="window_start")
+                raise IdentificationError(f"{t.path.name}: fewer than 4 samples after window_start",
+                                          field="window_start")
             f, x = signals(t)
             p = harmonic(f[keep], x[:, keep], t.time[keep], t.omega, blocks)
             lines[t.omega] = lines[t.omega].add(p) if t.omega in lines else p
