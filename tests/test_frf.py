@@ -5,6 +5,7 @@ H1/H2/Hv, the confidence bands' coverage, stepped-sine and impulse tests,
 the file, UFF 58 and plot outputs, and the CLI/API on a campaign folder."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -376,6 +377,13 @@ def test_cli_and_api_write_frfs_that_match_the_model(frame_folder, tmp_path, cap
     assert sine.force.name == "force_3_x" and sine.units == ["m/N"] * 3  # the commanded force (no load cell)
     mag, phase = log_errors(sine.frf, model_frf(0.01, sine.frequency, "displacement"))
     assert np.max(np.abs(mag)) < 0.01 and np.max(np.abs(phase)) < 1.0
+
+    assert main(["frf", str(frame_folder), "--group", "random", "--estimator", "Hv", "--no-plot", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["files"] == {"random": str(frame_folder / "frf" / "random.h5")} and listed["plots"] == {}
+    assert read_frf(frame_folder / "frf" / "random.h5").estimator == "Hv"
+    assert main(["frf", str(frame_folder), "--segment", "20.48"]) == 0  # back to H1 for the export below
+    capsys.readouterr()
 
     with pytest.raises(IdentificationError, match="no force"):
         sb.frf(frame_folder, groups=["free"])

@@ -14,7 +14,6 @@ from ..errors import IdentificationError
 from ..io.frf_files import Frf, write_frf
 from ..io.traces import read_infos, read_trace, trace_files
 from . import estimate
-from .plot import plot_frf
 
 FOLDER = "frf"
 
@@ -76,6 +75,7 @@ def frf_folder(campaign_dir: str | Path, estimator: str = "H1", *, groups: Seque
         out.frfs[group] = result
         out.files[group] = write_frf(folder / f"{group}.h5", result)
         if plot:
+            from .plot import plot_frf  # matplotlib only when plotting
             out.plots[group] = plot_frf(result, folder / f"{group}.png")
     if not out.frfs:
         raise IdentificationError(f"no test group of {campaign_dir} has a force to refer FRFs to "
