@@ -29,18 +29,19 @@ def figure(frf: Frf, responses: Sequence[str] | None = None) -> Figure:
     FigureCanvasAgg(fig)
     mag_ax, phase_ax, coh_ax = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1.3, 1]})
     f = frf.frequency
+    style = {"lw": 1.0, "marker": "o" if frf.analysis == "harmonic" else None, "ms": 4}  # lines: one per test
     for i in rows:
         label = f"{frf.responses[i].name} [{frf.units[i]}]"
-        line, = mag_ax.plot(f, frf.magnitude[i], lw=1.0, label=label)
+        line, = mag_ax.plot(f, frf.magnitude[i], label=label, **style)
         color = line.get_color()
         lo, hi = frf.magnitude_band[:, i]
         if np.isfinite(lo).any():
             mag_ax.fill_between(f, lo, hi, color=color, alpha=0.2, lw=0)
-        phase_ax.plot(f, np.degrees(frf.phase[i]), lw=1.0, color=color)
+        phase_ax.plot(f, np.degrees(frf.phase[i]), color=color, **style)
         plo, phi = frf.phase_band[:, i]
         if np.isfinite(plo).any():
             phase_ax.fill_between(f, np.degrees(plo), np.degrees(phi), color=color, alpha=0.2, lw=0)
-        coh_ax.plot(f, frf.coherence[i], lw=1.0, color=color)
+        coh_ax.plot(f, frf.coherence[i], color=color, **style)
     mag_ax.set_yscale("log")
     mag_ax.set_ylabel("|H|")
     mag_ax.legend(fontsize=7, loc="best")
