@@ -78,10 +78,12 @@ def _jobs(config: pytest.Config) -> int | None:
         raise pytest.UsageError(f"ini option structbench_jobs: expected a whole number, got {ini!r}") from None
 
 
-def cache_key(campaign_text: str, fmu_sha256: str, version: str) -> str:
-    """sha256 (hex) of the campaign file's text, the FMU's sha256 and structbench's version."""
+def cache_key(campaign_text: str, fmu_sha256: str, version: str, signals: Sequence[str] = ()) -> str:
+    """sha256 (hex) of the campaign file's text, the FMU's sha256 and
+    structbench's version (and the sha256 of the recorded signals the
+    campaign's excitation reads from files, which its text only names)."""
     digest = hashlib.sha256(CACHE_FORMAT.encode())
-    for part in (campaign_text, fmu_sha256, version):
+    for part in (campaign_text, fmu_sha256, version, *signals):
         data = part.encode()
         digest.update(len(data).to_bytes(8, "big") + data)
     return digest.hexdigest()
@@ -151,7 +153,8 @@ def cached_campaign(campaign_file: str | Path, cache: str | Path, jobs: int | No
         with _locked(cache / "fmus.lock"):
             fmu = build_fmu(campaign.model, cache / "fmus")  # a no-op when already built
     fmu_sha256 = _sha256(fmu)
-    key = cache_key(campaign.text, fmu_sha256, _version())
+    signals = sorted({i.sha256 for t in campaign.tests for i in t.excitation if hasattr(i, "sha256")})
+    key = cache_key(campaign.text, fmu_sha256, _version(), signals)
     entry, marker = cache / key, cache / f"{key}.json"
     with _locked(cache / f"{key}.lock"):
         if marker.is_file() and _complete(entry):

@@ -6,14 +6,19 @@ import math
 import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
+import numpy as np
+
+from structbench.fmus.spec import parameter_names
 from structbench.models import ModalModel, Model
 from structbench.models.errors import UserError
-from structbench.models.channels import QUANTITIES, Channel
+from structbench.models.channels import QUANTITIES, ROTATIONS, Channel
 
-from .excitation import (Excitation, Harmonic, Impulse, Initial, RandomForce, force_dofs, is_force, perturb,
-                         realisations, varies)
+from .excitation import (Excitation, GroundForce, Harmonic, Impulse, Initial, RandomForce, RecordedForce,
+                         SignalFileError, digest, force_dofs, is_force, perturb, read_recording, realisations,
+                         resample, varies)
 from .external import VariableMap
 from .noise import MODES, NoiseSpec, actuator_rng, derived_seed
 from .toml_lines import Path as KeyPath
@@ -28,6 +33,10 @@ class Reader(Protocol):
 
     def want(self, key: KeyPath, mapping: VariableMap, quantity: str, node: int, direction: str) -> None: ...
 
+    path: Path  # the campaign file (recorded signals' paths are relative to it)
+
+    def parameters(self, model: Model | None, fmu: Path | None) -> dict[str, float]: ...
+
 TEST_KEYS = ("name", "description", "dt", "step", "duration", "repetitions", "excitation", "sensors", "noise",
              "timeout")
 MAX_STEPS = 1e8  # communication steps of one test (memory: 800 MB per signal)
@@ -39,6 +48,8 @@ EXCITATION_KEYS = {
     "impulse": ("kind", "node", "dir", "impulse", "time", "method"),
     "random": ("kind", "node", "dir", "rms", "band", "seed", "realisation"),
     "initial": ("kind", "node", "dir", "displacement", "velocity"),
+    "recorded": ("kind", "node", "dir", "file", "channel", "unit", "scale", "time"),
+    "ground": ("kind", "dir", "file", "channel", "unit", "scale", "time"),
 }
 SENSOR_KEYS = ("nodes", "dirs", "quantities")
 NOISE_KEYS = ("sensor", "mode", "actuator_amplitude", "actuator_frequency", "seed")
@@ -162,16 +173,19 @@ class TestReader:
                          table.number("actuator_frequency", 0.0, low=0.0), seed)
 
     def _excitation(self, item: Table, index: int, duration: float | None
-                    ) -> tuple[Excitation, tuple[float, ...], float | None]:
-        """An item; for a stepped sine a template with its frequencies and window."""
+                    ) -> tuple[Excitation | tuple[Excitation, ...], tuple[float, ...], float | None]:
+        """An item (a ground motion: one per DOF); for a stepped sine a
+        template with its frequencies and window."""
         kind = item.string("kind", choices=tuple(EXCITATION_KEYS))
         item.allow(EXCITATION_KEYS[kind], f"a {kind} excitation")
+        if kind == "ground":
+            return self._ground(item, duration), (), None
         node, direction = item.integer("node"), item.string("dir")
         self._dof(item, node, direction, "node")
         if kind == "stepped-sine":
             return self._stepped_sine(item, node, direction, duration)
         build = {"harmonic": self._harmonic, "impulse": self._impulse, "random": self._random,
-                 "initial": self._initial}[kind]
+                 "initial": self._initial, "recorded": self._recorded}[kind]
         return build(item, node, direction, index, duration), (), None
 
     def _harmonic(self, item: Table, node: int, direction: str, index: int = 0, duration: float | None = None,
@@ -222,6 +236,51 @@ class TestReader:
             raise item.error("kind", "initial conditions at a point are not defined for a modal model; "
                                      "use an impulse")
         return Initial(node, direction, item.number("displacement", 0.0), item.number("velocity", 0.0))
+
+    def _signal(self, item: Table, quantity: str, duration: float | None) -> tuple[dict[str, Any], np.ndarray]:
+        """A recorded signal's fields and its values on the communication grid."""
+        if duration is None:
+            raise item.error("kind", "a recorded signal needs the test's duration")
+        file = item.string("file")
+        channel = item.string("channel") if "channel" in item.data else None
+        unit = item.string("unit") if "unit" in item.data else None
+        try:
+            recording = read_recording(self.reader.path.parent / file, channel, quantity, unit)
+        except SignalFileError as err:
+            raise item.error("file", f"{file}: {err}") from None
+        time = item.number("time", 0.0, low=0.0)
+        signal = resample(recording, self.step, round(duration / self.step) + 1, time)
+        fields = {"file": file, "channel": recording.channel, "unit": recording.unit,
+                  "scale": item.number("scale", 1.0), "time": time, "step": self.step, "sha256": digest(signal)}
+        return fields, signal
+
+    def _recorded(self, item: Table, node: int, direction: str, index: int, duration: float | None
+                  ) -> RecordedForce:
+        fields, signal = self._signal(item, "force", duration)
+        return RecordedForce(node, direction, **fields, signal=signal)
+
+    def _ground(self, item: Table, duration: float | None) -> tuple[GroundForce, ...]:
+        """A ground acceleration in ``dir`` as the forces ``-M r a_g`` at every
+        DOF where ``M r`` is not zero (``r``: 1 on the DOF of that direction)."""
+        direction = item.string("dir")
+        model = self.model
+        if model is None or isinstance(model, ModalModel):
+            raise item.error("kind", "ground motion needs a finite-element structure's mass matrix "
+                                     "(a built-in or TOML structure, not an external FMU or a modal model)")
+        directions = sorted({d for _, d in model.dofs})
+        if direction not in directions or direction in ROTATIONS:
+            raise item.error("dir", f"{direction!r}: not a translation of {model.name} (directions: "
+                                    f"{', '.join(directions)})")
+        overrides = self.reader.parameters(model, None)  # [parameters]: the structure tested is the true one
+        if overrides:
+            names = parameter_names(model)
+            values = dict(zip(names, model.values)) | overrides
+            model = model.with_values(np.array([values[n] for n in names]))
+        r = np.array([d == direction for _, d in model.dofs], dtype=float)
+        mass = model.mass().toarray() @ r
+        fields, signal = self._signal(item, "acceleration", duration)
+        return tuple(GroundForce(node, d, **fields, signal=signal, mass=float(m))
+                     for (node, d), m in zip(model.dofs, mass) if m != 0.0)
 
     def _channels(self, force_at: list[tuple[int, str]]) -> dict[Channel, KeyPath]:
         """Channels in order (per sensor entry, quantity-major), each with its key."""
@@ -281,8 +340,8 @@ class TestReader:
             if omegas:
                 if stepped is not None:
                     raise item.error("kind", "one stepped sine per test")
-                stepped = (j, built, omegas, window)
-            items.append(built)
+                stepped = (len(items), built, omegas, window)
+            items.extend(built) if isinstance(built, tuple) else items.append(built)
         if not items:
             raise self.t.error("excitation", "a test needs at least one [[tests.excitation]] entry")
         if stepped is None:
