@@ -9,6 +9,8 @@ harness, the FMU layer or the truth.
 - :mod:`.perturbation`: chapter 4, frequency-domain perturbation with
   unmeasured responses as pseudo-parameters
 - :mod:`.rayleigh`: chapter 5, modes from a pseudo-Rayleigh quotient
+- :mod:`.frf`: frequency response functions (H1, H2, Hv) with coherence and
+  confidence bands from random, impulse and stepped-sine tests
 - :mod:`.modal`: modes with damping and standard errors by covariance-driven
   SSI (:mod:`.modal.ssi`), close pairs from free decays
   (:mod:`.modal.close_pairs`)
