@@ -19,13 +19,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 __all__ = ["BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes",
-           "reproduce", "reproduce_table", "results_file", "run_campaign", "score", "write_junit"]
+           "export_modes", "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods",
+           "model_geometry", "modes", "plot_modes", "reproduce", "reproduce_table", "results_file", "run_campaign",
+           "score", "write_junit"]
 
 if TYPE_CHECKING:  # what static checkers see; at run time __getattr__ loads these
-    from .api import (BuiltFmu, Campaign, CampaignStatus, Method, UserError, build_fmus, check, export_traces, frf,
-                      identify, import_data, list_traces, load_campaign, methods, modes, reproduce,
-                      reproduce_table, results_file, run_campaign, score, write_junit)
+    from .api import (BuiltFmu, Campaign, CampaignStatus, Method, UserError, build_fmus, check, export_modes,
+                      export_traces, frf, identify, import_data, list_traces, load_campaign, methods, model_geometry,
+                      modes, plot_modes, reproduce, reproduce_table, results_file, run_campaign, score, write_junit)
 
 
 def __getattr__(name: str) -> Any:

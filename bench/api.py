@@ -19,8 +19,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
-           "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods", "modes",
-           "reproduce", "reproduce_table", "results_file", "run_campaign", "score", "write_junit"]
+           "export_modes", "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods",
+           "model_geometry", "modes", "plot_modes", "reproduce", "reproduce_table", "results_file", "run_campaign",
+           "score", "write_junit"]
 
 # Names this module passes on from the subpackages, imported on first use
 # (module __getattr__): each call below imports what it needs when it runs,
@@ -160,12 +161,14 @@ def check(campaign_dir: str | Path, results: Sequence[str] | None = None) -> lis
     return check_campaign(campaign_dir, results)
 
 
-def write_junit(rows: Sequence[dict[str, Any]], path: str | Path, time: float = 0.0) -> Path:
+def write_junit(rows: Sequence[dict[str, Any]], path: str | Path, time: float = 0.0,
+                error: tuple[str, str] | None = None) -> Path:
     """Gate rows of :func:`check` as a JUnit XML report at ``path`` (one
     test case per gate, a failure naming value, threshold and campaign);
-    ``time``: the check's duration (s)."""
+    ``time``: the check's duration (s); ``error`` = (campaign, message):
+    instead one test case in error, for a check that could not be made."""
     from structbench.evaluation.junit import write_junit as write
-    return write(rows, path, time)
+    return write(rows, path, time, error)
 
 
 def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, jobs: int | None = None,
@@ -201,6 +204,50 @@ def import_data(files: Sequence[str | Path], out: str | Path, map_file: str | Pa
     folder behind. ``report`` receives one line per channel the map overrides."""
     from structbench.labdata.importer import import_files
     return import_files(files, out, map_file, name, report)
+
+
+def model_geometry(structure: str | Path, out: str | Path | None = None) -> dict[str, Any]:
+    """The geometry document (docs/geometry-format.md: nodes in m, elements)
+    of a built-in structure or TOML model, from its node coordinates;
+    written to ``out`` as JSON when given."""
+    from structbench.labdata.geometry import geometry_from_model, write_geometry
+    from structbench.models import load_model
+    geometry = geometry_from_model(load_model(structure))
+    if out is not None:
+        write_geometry(out, geometry)
+    return geometry.document()
+
+
+def plot_modes(campaign_dir: str | Path, geometry: str | Path | None = None, animate: str | None = None,
+               out: str | Path | None = None, scale: float = 0.1) -> list[Path]:
+    """Draw each mode of the modal results ``CAMPAIGN_DIR/results/*.json``
+    on the geometry: one PNG per mode (undeformed in grey, deformed in
+    colour, the largest displacement ``scale`` times the geometry's size)
+    and, with ``animate`` ``"gif"`` (Pillow) or ``"html"`` (JavaScript), one
+    animation per mode, into ``out`` (default ``CAMPAIGN_DIR/modes``).
+    ``geometry``: a geometry file; default ``CAMPAIGN_DIR/geometry.json``,
+    else the results' structure's node coordinates. Returns the files."""
+    from structbench.evaluation.mode_plots import plot_campaign_modes
+    return plot_campaign_modes(campaign_dir, geometry, animate, out, scale)
+
+
+def export_modes(campaign_dir: str | Path, out: str | Path, results: str | None = None) -> Path:
+    """The modal results of a campaign folder as UFF dataset 55 (ASCII) at
+    ``out``: every run of ``results/<results>.json`` (default: the only
+    results file with mode shapes), one dataset per mode (docs/labdata.md)."""
+    from structbench.identifier.io.results import read_results
+    from structbench.labdata.uff55 import write_uff55
+    from structbench.models.errors import UserError
+    folder = Path(campaign_dir) / "results"
+    files = [folder / f"{results}.json"] if results else sorted(folder.glob("*.json"))
+    chosen = [(p, *read_results(p)) for p in files if p.is_file()]
+    chosen = [(p, h, runs) for p, h, runs in chosen if any(r.mode_shapes or r.mode_shapes_complex for r in runs)]
+    if len(chosen) != 1:
+        names = ", ".join(p.stem for p, _, _ in chosen) or "none"
+        raise UserError(f"{len(chosen)} results files with mode shapes in {folder} ({names}); name one with "
+                        "--results", field="--results" if results else "DIR")
+    path, header, runs = chosen[0]
+    return write_uff55(out, [r.to_dict() for r in runs], f"{header['method']} {path.stem}")
 
 
 def export_traces(campaign_dir: str | Path, fmt: str, out: str | Path, binary: bool = True) -> list[Path]:

@@ -1,4 +1,5 @@
-"""``structbench import``: measured files (UFF 58, CSV, SEP005) into a trace folder.
+"""``structbench import``: measured files (UFF 58, CSV, SEP005) into a trace folder,
+with the files' geometry (``geometry.json``) and modal results (UFF 55, ``results/``).
 
 One trace per file, in SI units converted from the files' own unit fields;
 the sensor map (TOML, docs/labdata.md) gives what the files lack. Every
@@ -11,7 +12,8 @@ from pathlib import Path
 
 from structbench import api
 
-HELP = "import measured data (UFF 58 ascii/binary, CSV, SEP005 JSON) into a trace folder"
+HELP = ("import measured data (UFF 58 ascii/binary, CSV, SEP005 JSON) into a trace folder; UFF geometry "
+        "(15/2411, 82, 2412, 18/2420) and modes (55) too")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -26,5 +28,10 @@ def run(args: argparse.Namespace) -> int:
     written = api.import_data(args.files, args.out, args.map, args.name, overrides.append)
     for line in overrides:
         print(f"sensor map override: {line}")
-    print(f"{len(written)} trace file(s) in {args.out / 'traces'}")
+    traces = [p for p in written if p.suffix == ".h5"]
+    if traces:
+        print(f"{len(traces)} trace file(s) in {args.out / 'traces'}")
+    for path in written:
+        if path.suffix == ".json":
+            print(f"{'geometry' if path.parent == args.out else 'modal results'}: {path}")
     return 0

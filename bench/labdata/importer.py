@@ -9,9 +9,11 @@ nothing half-written.
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -21,11 +23,14 @@ from structbench.harness.trace_writer import ChannelData, Trace, trace_bytes, wr
 from structbench.models.errors import UserError
 
 from .csv_files import read_csv
+from .geometry import FILE_NAME, Geometry, check_nodes
 from .overrides import Mapped, apply_map, duplicate_error
 from .sensor_map import UFF_DIRECTIONS, SensorMap, load_map
 from .sep005 import read_sep005
 from .signals import Signal, parse_name, uniform_dt
-from .uff58 import FUNCTION_TYPES, Record58, read_uff58
+from .uff55 import read_uff55, results_document
+from .uff58 import FUNCTION_TYPES, Record58, read_datasets
+from .uff_geometry import GEOMETRY_KINDS, read_geometry_datasets
 from .units import conversion, time_factor
 
 UFF_SUFFIXES = (".uff", ".unv", ".uf")
@@ -53,18 +58,49 @@ def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
                   -1.0 if record.direction < 0 else 1.0)
 
 
-def read_signals(path: Path, smap: SensorMap) -> list[Signal]:
-    """The channels of one file, by its suffix (.uff/.unv, .csv, .json = SEP005)."""
+@dataclass
+class FileParts:
+    """What one file holds: time ``signals`` (UFF 58, CSV, SEP005), its
+    ``geometry`` (UFF 15/2411, 82, 2412, 18/2420; None without) and modal
+    results ``runs`` (UFF 55)."""
+
+    signals: list[Signal]
+    geometry: Geometry | None = None
+    runs: list[dict] = field(default_factory=list)
+
+
+def read_file(path: Path, smap: SensorMap) -> FileParts:
+    """The parts of one file, by its suffix (.uff/.unv, .csv, .json = SEP005)."""
     if not path.is_file():
         raise UserError("no such file", field=str(path))
     suffix = path.suffix.lower()
     if suffix in UFF_SUFFIXES:
-        return [_uff_signal(path.name, r, smap) for r in read_uff58(path)]
+        records, others = read_datasets(path)
+        kinds = {d.kind for d in others}
+        geometry = None
+        if kinds & set(GEOMETRY_KINDS):
+            unit = conversion(smap.length_unit, "sensor map length_unit") if smap.length_unit else None
+            if unit is not None and unit.dimension != "length":
+                raise UserError(f"{smap.length_unit!r} is not a length", field="sensor map length_unit")
+            geometry = read_geometry_datasets(path.name, others, unit.factor if unit else None)
+        runs = read_uff55(path.name, others, smap.directions.get, smap.structure or "") if 55 in kinds else []
+        if not (records or geometry or runs):
+            raise UserError(f"no dataset 58 (time data), 55 (modes) or geometry (15, 2411, 82, 2412, 18, 2420); "
+                            f"found types: {', '.join(str(d.kind) for d in others) or 'none'}", field=path.name)
+        return FileParts([_uff_signal(path.name, r, smap) for r in records], geometry, runs)
     if suffix == ".csv":
-        return read_csv(path)
+        return FileParts(read_csv(path))
     if suffix == ".json":
-        return read_sep005(path)
-    raise UserError(f"unknown file type {suffix!r}: .uff/.unv (UFF 58), .csv or .json (SEP005)", field=path.name)
+        return FileParts(read_sep005(path))
+    raise UserError(f"unknown file type {suffix!r}: .uff/.unv (UFF), .csv or .json (SEP005)", field=path.name)
+
+
+def read_signals(path: Path, smap: SensorMap) -> list[Signal]:
+    """The channels of one file (a file without any is a :class:`UserError`)."""
+    signals = read_file(path, smap).signals
+    if not signals:
+        raise UserError("no time data (UFF dataset 58) in the file", field=path.name)
+    return signals
 
 
 def _channel(mapped: Mapped, time: np.ndarray) -> tuple[str, ChannelData]:
@@ -90,11 +126,11 @@ def _channel(mapped: Mapped, time: np.ndarray) -> tuple[str, ChannelData]:
                               float(entry.get("noise_ratio", 0.0)), str(entry.get("noise_mode", "rms")), attrs)
 
 
-def build_trace(path: Path, smap: SensorMap, campaign: str,
-                report: Callable[[str], None] | None = None) -> Trace:
-    """The trace of one file; ``report`` receives one line per channel the
-    sensor map overrides."""
-    signals = read_signals(path, smap)
+def build_trace(path: Path, smap: SensorMap, campaign: str, report: Callable[[str], None] | None = None,
+                signals: list[Signal] | None = None) -> Trace:
+    """The trace of one file (of its ``signals`` when already read);
+    ``report`` receives one line per channel the sensor map overrides."""
+    signals = read_signals(path, smap) if signals is None else signals
     time = signals[0].time
     dt = uniform_dt(time)
     if dt is None:
@@ -118,30 +154,66 @@ def build_trace(path: Path, smap: SensorMap, campaign: str,
                  dict(test.get("noise", {})), {"source": path.name})
 
 
+def _write_new(path: Path, text: str) -> Path:
+    if path.exists():
+        raise UserError("exists; import into a folder without it", field=str(path))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    return path
+
+
 def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
                  name: str | None = None, report: Callable[[str], None] | None = None) -> list[Path]:
-    """Import ``files`` into the new folder ``out`` (``out/traces/*.h5``);
-    returns the trace files written (``<file name without suffix>.h5``).
-    ``report`` receives one line per channel whose fields the sensor map overrides."""
+    """Import ``files`` into the folder ``out``: time data to
+    ``out/traces/<file stem>.h5`` (``out`` must be new or empty), geometry to
+    ``out/geometry.json`` (docs/geometry-format.md), modal results (UFF 55)
+    to ``out/results/uff55-<file stem>.json``; without time data ``out`` may
+    be an existing campaign folder (to score the modes against its truth).
+    Returns the files written, traces first. ``report`` receives one line
+    per channel whose fields the sensor map overrides."""
     out = Path(out)
     if not files:
         raise UserError("no input files", field="FILE")
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise UserError("exists and is not empty; import into a new folder", field="--out")
     smap = load_map(map_file)
     campaign = name or smap.campaign or out.name
-    traces = [build_trace(Path(f), smap, campaign, report) for f in files]
-    stems = [Path(f).stem for f in files]
+    paths = [Path(f) for f in files]
+    stems = [p.stem for p in paths]
     if len(set(stems)) < len(stems):
         raise UserError("two input files have the same name (without suffix)", field="FILE")
+    parts = [read_file(p, smap) for p in paths]
+    traces = [(p.stem, build_trace(p, smap, campaign, report, fp.signals)) for p, fp in zip(paths, parts)
+              if fp.signals]
+    geometry = None
+    for p, fp in zip(paths, parts):
+        if fp.geometry is not None:
+            geometry = fp.geometry if geometry is None else geometry
+            if geometry is not fp.geometry:
+                geometry.merge(fp.geometry, p.name)
+    if geometry is not None:
+        check_nodes(geometry, "FILE")
+    texts = {f"results/uff55-{p.stem}.json": json.dumps(results_document(fp.runs, campaign, smap.structure or "",
+                                                                         p.name), indent=1) + "\n"
+             for p, fp in zip(paths, parts) if fp.runs}
+    if geometry is not None:
+        texts[FILE_NAME] = json.dumps(geometry.document(), indent=1) + "\n"
+    if not traces:
+        if out.exists() and not out.is_dir():
+            raise UserError("is a file, expected a folder", field="--out")
+        return [_write_new(out / rel, text) for rel, text in texts.items()]
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise UserError("exists and is not empty; import time data into a new folder", field="--out")
     tmp = out.with_name(f".{out.name}.import-{os.getpid()}")
     try:
         (tmp / "traces").mkdir(parents=True)
-        for stem, trace in zip(stems, traces):
+        for stem, trace in traces:
             write_atomic(tmp / "traces" / f"{stem}.h5", trace_bytes(trace))
+        for rel, text in texts.items():
+            _write_new(tmp / rel, text)
         if out.exists():
             out.rmdir()
         tmp.rename(out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    return [out / "traces" / f"{stem}.h5" for stem in stems]
+    return [out / "traces" / f"{stem}.h5" for stem, _ in traces] + [out / rel for rel in texts]

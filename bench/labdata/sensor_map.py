@@ -2,6 +2,7 @@
 
     campaign = "lab-2026"          # trace attribute `campaign`
     structure = "shear-frame-3"    # trace attribute `structure` (identify's default model)
+    length_unit = "mm"             # geometry (UFF 15/2411) without a units dataset 164 (default m)
 
     [directions]                   # UFF direction codes x y z rx ry rz -> the model's names
     z = "w"
@@ -57,7 +58,7 @@ CHANNEL_KEYS = {"name", "file", "dataset", "quantity", "node", "direction", "uni
                 "noise_ratio", "noise_mode", "excitation"}
 OVERRIDES = ("quantity", "node", "direction", "unit", "sign")  # map values that replace the file's
 TEST_KEYS = {"file", "test", "group", "repetition", "step", "seed", "excitation", "noise"}
-TOP_KEYS = {"campaign", "structure", "directions", "channels", "tests"}
+TOP_KEYS = {"campaign", "structure", "length_unit", "directions", "channels", "tests"}
 UFF_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
@@ -70,6 +71,7 @@ class SensorMap:
     directions: dict[str, str] = field(default_factory=dict)
     channels: tuple[dict[str, Any], ...] = ()
     tests: tuple[dict[str, Any], ...] = ()
+    length_unit: str | None = None
 
     def direction(self, code: str) -> str:
         """The model's name of a UFF direction code (``x`` .. ``rz``)."""
@@ -136,7 +138,7 @@ def load_map(path: str | Path | None) -> SensorMap:
         raise UserError(f"{bad} are not UFF direction codes ({', '.join(UFF_DIRECTIONS)})",
                         field=f"{path.name} directions")
     return SensorMap(data.get("campaign"), data.get("structure"), dict(data.get("directions", {})),
-                     tuple(data.get("channels", [])), tuple(data.get("tests", [])))
+                     tuple(data.get("channels", [])), tuple(data.get("tests", [])), data.get("length_unit"))
 
 
 def _value(value: Any) -> str:

@@ -206,9 +206,19 @@ def _record(reader: _Reader, type_line: str) -> Record58:
                     axes[0], axes[1], x, columns[-1], binary, ordinate_type, even)
 
 
-def read_uff58(path: str | Path) -> list[Record58]:
-    """Every dataset 58 of a UFF file (other datasets, e.g. 15 or 164, are
-    skipped); a malformed file raises :class:`UserError` naming the dataset
+@dataclass(frozen=True)
+class Dataset:
+    """A dataset other than 58: its 1-based ``index`` among the file's
+    datasets, its ``kind`` (type number) and its lines after the type line."""
+
+    index: int
+    kind: int
+    lines: tuple[str, ...]
+
+
+def read_datasets(path: str | Path) -> tuple[list[Record58], list[Dataset]]:
+    """Every dataset 58 of a UFF file, parsed, and every other dataset as
+    text lines; a malformed file raises :class:`UserError` naming the dataset
     and record."""
     reader = _Reader(Path(path))
     records, others = [], []
@@ -222,10 +232,20 @@ def read_uff58(path: str | Path) -> list[Record58]:
         if kind == 58:
             records.append(_record(reader, type_line))
         else:
-            others.append(kind)
+            start = reader.pos
             reader.skip_dataset()
+            body = reader.data[start:reader.pos].decode("latin-1").splitlines()
+            others.append(Dataset(reader.index, kind, tuple(body[:-1])))
+    return records, others
+
+
+def read_uff58(path: str | Path) -> list[Record58]:
+    """Every dataset 58 of a UFF file (other datasets, e.g. 15 or 164, are
+    skipped); a malformed file raises :class:`UserError` naming the dataset
+    and record."""
+    records, others = read_datasets(path)
     if not records:
-        raise UserError(f"no dataset 58 (found types: {', '.join(map(str, others)) or 'none'})",
+        raise UserError(f"no dataset 58 (found types: {', '.join(str(d.kind) for d in others) or 'none'})",
                         field=Path(path).name)
     return records
 
