@@ -223,3 +223,18 @@ def test_pytest_own_junit_report_passes_the_same_schema(tmp_path):
                     "test_two.py"], cwd=tmp_path, capture_output=True, timeout=120)
     document = validated((tmp_path / "pytest.xml").read_bytes())
     assert document.find("testsuite").get("failures") == "1"
+
+
+def test_a_check_that_cannot_be_made_is_an_error_case(tmp_path, capsys):
+    """No gates to evaluate (here: no truth.json): exit 2, and the report says why."""
+    folder = tmp_path / "bare"
+    folder.mkdir()
+    (folder / "campaign.toml").write_text('name = "bare"\n[check]\nrms_max = 0.1\n')
+    report = tmp_path / "gates.xml"
+    assert main(["check", str(folder), "--junit-xml", str(report)]) == 2
+    err = capsys.readouterr().err.strip()
+    document = validated(report.read_bytes())
+    (suite,) = document.findall("testsuite")
+    assert (suite.get("tests"), suite.get("errors"), suite.get("failures")) == ("1", "1", "0")
+    error = suite.find("testcase").find("error")
+    assert error.get("type") == "structbench.UserError" and error.get("message") in err and "no truth.json" in err

@@ -4,7 +4,9 @@ The common JUnit layout that CI servers read (the Jenkins/Ant junit-4 schema):
 ``testsuites > testsuite`` (one per campaign) ``> testcase`` (one per gate,
 ``classname`` ``structbench.<campaign>.<results file stem>``, ``name`` the
 gate) ``> failure`` for a gate that is not met, its ``message`` naming the
-value, the threshold and the campaign.
+value, the threshold and the campaign. When the gates cannot be evaluated
+(no results, a damaged file), the report holds one test case ``check`` with
+an ``error`` carrying that message, so the CI server shows why.
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from typing import Any
 from structbench.models.errors import UserError
 
 FAILURE_TYPE = "structbench.GateFailed"
+ERROR_TYPE = "structbench.UserError"
 
 
 def _number(value: float) -> str:
@@ -33,6 +36,19 @@ def failure_message(row: Mapping[str, Any]) -> str:
         relation = {"<": ">=", ">": "<="}[relation]
     return (f"{row['results']} {row['gate']} = {_number(row['value'])} {relation} "
             f"{_number(row['threshold'])} (threshold) in campaign {row.get('campaign', '?')}")
+
+
+def error_xml(campaign: str, message: str, time: float = 0.0) -> bytes:
+    """A JUnit XML document of one test case ``check`` of ``campaign`` in error (``message``)."""
+    root = ET.Element("testsuites", name="structbench check", tests="1", failures="0", errors="1", time=f"{time:.3f}")
+    suite = ET.SubElement(root, "testsuite", name=f"structbench check {campaign}", tests="1", failures="0",
+                          errors="1", skipped="0", time=f"{time:.3f}",
+                          timestamp=datetime.now(timezone.utc).replace(microsecond=0, tzinfo=None).isoformat(),
+                          hostname=socket.gethostname() or "localhost", id="0", package=f"structbench.{campaign}")
+    case = ET.SubElement(suite, "testcase", name="check", classname=f"structbench.{campaign}", time=f"{time:.3f}")
+    ET.SubElement(case, "error", message=message, type=ERROR_TYPE).text = message + "\n"
+    ET.indent(root)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
 
 
 def junit_xml(rows: Sequence[Mapping[str, Any]], time: float = 0.0, timestamp: datetime | None = None) -> bytes:
@@ -67,9 +83,11 @@ def junit_xml(rows: Sequence[Mapping[str, Any]], time: float = 0.0, timestamp: d
     return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
 
 
-def write_junit(rows: Sequence[Mapping[str, Any]], path: str | Path, time: float = 0.0) -> Path:
+def write_junit(rows: Sequence[Mapping[str, Any]], path: str | Path, time: float = 0.0,
+                error: tuple[str, str] | None = None) -> Path:
     """Write :func:`junit_xml` of ``rows`` to ``path`` (atomically: a reader
-    never sees half a file); its folder must exist."""
+    never sees half a file), or with ``error`` = (campaign, message)
+    :func:`error_xml`; its folder must exist."""
     path = Path(path)
     if path.is_dir():
         raise UserError("is a folder, expected a file name", field=f"--junit-xml {path}")
@@ -77,7 +95,7 @@ def write_junit(rows: Sequence[Mapping[str, Any]], path: str | Path, time: float
         raise UserError(f"no folder {path.parent} to write the report into", field=f"--junit-xml {path}")
     partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
     try:
-        partial.write_bytes(junit_xml(rows, time))
+        partial.write_bytes(junit_xml(rows, time) if error is None else error_xml(*error, time))
         os.replace(partial, path)
     except OSError as err:
         partial.unlink(missing_ok=True)
