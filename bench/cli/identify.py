@@ -162,9 +162,10 @@ def table(run: dict[str, Any]) -> list[str]:
         lines.append(f"  {p['label']:16s} {p['value']:14.6g}{err:14s} {p['unit']}{start}")
     damping, se = run.get("damping") or [], run.get("omega_std") or []
     for i, (w, lam) in enumerate(zip(run.get("omega", []), run.get("eigenvalues", [])), start=1):
-        extra = (f"   +- {se[i - 1]:.2g}   zeta = {damping[i - 1]:8.5f} +- {run['damping_std'][i - 1]:.2g}"
+        extra = (f"   zeta = {damping[i - 1]:8.5f} +- {run['damping_std'][i - 1]:.2g}"
                  f"   MPC {run['mpc'][i - 1]:.3f}" if damping else "")
-        lines.append(f"  mode {i:2d}  omega = {w:10.6f} rad/s   omega^2 = {lam:10.6f}{extra}")
+        sigma = f" +- {se[i - 1]:.2g}" if damping else ""
+        lines.append(f"  mode {i:2d}  omega = {w:10.6f}{sigma} rad/s   omega^2 = {lam:10.6f}{extra}")
     return lines
 
 

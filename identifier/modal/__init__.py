@@ -64,7 +64,7 @@ from structbench.models.channels import QUANTITIES as RESPONSES
 
 from ..errors import IdentificationError
 from .uncertainty import Replicates, jackknife
-from .close_pairs import split_free_decays
+from .close_pairs import FREE_KINDS, split_free_decays
 from ..io.results import Identification
 from .runtime import one_blas_thread, tune_from_environment
 from .ssi.covariance import covariances, is_free_decay, project, reference_channels, row_projection
@@ -72,6 +72,8 @@ from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi.hankel import BlockHankel, leading_svd
 from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
+from .support import judge, with_bias
+from .support import rejected as support_rejected
 from ..io.traces import Channel, Trace
 
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
@@ -82,20 +84,31 @@ STEADY = 0.8  # ... unless it is stable at this share of the orders or more
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndarray], list[Channel], float]:
-    """Per trace the outputs (m, n) of one quantity (``auto``: displacement,
-    else velocity, else acceleration), the channels (of the first trace) and dt s."""
+    """Per trace the outputs (m, n), the channels (of the first trace, sorted
+    by (node, direction)) and dt s. ``quantity``: every sensor of that
+    quantity; ``auto``: at every sensor location (node, direction) one
+    channel, its displacement, else velocity, else acceleration, so that a
+    run whose locations carry different quantities uses them all (each
+    channel is scaled by its RMS before the covariances, and the poles are
+    the same whatever the quantity). One sensor is enough."""
     if quantity not in QUANTITIES:
         raise IdentificationError(f"unknown quantity {quantity!r}; known: {', '.join(QUANTITIES)}",
                                   field="quantity")
     first = traces[0]
-    chosen = next((q for q in QUANTITIES[1:] if first.select(q)), None) if quantity == "auto" else quantity
-    channels = first.select(chosen) if chosen else []
-    if len(channels) < 2:
-        raise IdentificationError(f"{first.path.name}: modal identification needs at least 2 "
-                                  f"{chosen or 'motion'} sensors, found {len(channels)}", field="channels")
+    if quantity == "auto":
+        best: dict[tuple[int, str], Channel] = {}
+        for q in reversed(QUANTITIES[1:]):  # the preferred quantity last: it wins
+            best.update((c.dof, c) for c in first.select(q))
+        channels = [best[dof] for dof in sorted(best)]
+    else:
+        channels = first.select(quantity)
+    if not channels:
+        raise IdentificationError(f"{first.path.name}: modal identification needs at least 1 "
+                                  f"{quantity if quantity != 'auto' else 'motion'} sensor, found none",
+                                  field="channels")
     records = []
     for trace in traces:
-        here = [trace.channel(chosen, c.node, c.direction) for c in channels]
+        here = [trace.channel(c.quantity, c.node, c.direction) for c in channels]
         bad = [c.name for c in here if not np.all(np.isfinite(c.data))]
         if bad:
             raise IdentificationError(f"{trace.path.name}: channel {bad[0]} holds NaN or infinite samples",
@@ -105,7 +118,8 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
                                       field="dt")
         records.append(np.vstack([c.data for c in here]))
     if not any(np.ptp(y, axis=1).max() > 0 for y in records):
-        raise IdentificationError(f"{first.path.name}: every {chosen} channel is constant in every trace: "
+        kinds = " and ".join(sorted({c.quantity for c in channels}))
+        raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
                                   f"no response to identify", field="channels")
     return records, channels, first.dt
 
@@ -162,12 +176,17 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
         by_order = {pl.order: pl for pl in poles}
         fit = {}  # (order, index) of a mode's representative pole: the mode's coherence
+        incoherent: list[dict] = []  # the candidates the coherence test rejects, for details.rejected
 
         def coherent(candidates: list[Mode]) -> list[bool]:
             values = _coherence(U, mo, by_order, candidates)
             fit.update(((md.order, md.index), c) for md, c in zip(candidates, values))
-            return [c >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
-                    for md, c in zip(candidates, values)]
+            ok = [c >= COHERENCE or len({n for n, _ in md.members}) >= STEADY * len(poles)
+                  for md, c in zip(candidates, values)]
+            incoherent.extend({"omega": md.omega, "zeta": md.zeta,
+                               "reason": f"temporal coherence {c:.2f} (needs {COHERENCE:g})"}
+                              for md, c, good in zip(candidates, values, ok) if not good)
+            return ok
 
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
         fits = [fit[md.order, md.index] for md in modes]
@@ -176,16 +195,30 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         omega_se, zeta_se, missed = jackknife(replicates, by_order,
                                               list(zip(_spread(modes), [md.omega for md in modes]))) \
             if replicates else (np.full(len(modes), np.nan), np.full(len(modes), np.nan), np.zeros(len(modes)))
-    kept = (missed <= 1) | (not drop_unrepeated)
+    omega = np.array([md.omega for md in modes])
+    zeta = np.array([md.zeta for md in modes])
+    free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
+    length = (max if free else sum)(y.shape[1] for y in records) * dt  # s: see support.record_bias
+    omega_se, zeta_se = with_bias(omega, omega_se, zeta_se, length, free, _scatter(modes, by_order))
+    verdict = judge(omega, zeta, omega_se, zeta_se, missed if drop_unrepeated else np.zeros(len(modes)),
+                    np.array([md.support for md in modes]),
+                    np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
+                    shapes, length, free, segments,
+                    errors=replicates is not None)
+    rejected = incoherent + support_rejected(omega, zeta, verdict)
+    kept = verdict.keep
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
     fits = [c for c, k in zip(fits, kept) if k]
-    omega = np.array([md.omega for md in modes])
-    zeta = np.array([md.zeta for md in modes])
-    split = split_free_decays(traces, records, dt, omega, zeta, shapes, omega_se, zeta_se, refine)
-    omega, zeta, omega_se, zeta_se, shapes = split.omega, split.zeta, split.omega_std, split.zeta_std, split.shapes
-    modes = [modes[i] if i >= 0 else None for i in split.source]  # -1: found by the free-decay fit
-    fits = [fits[i] if i >= 0 else None for i in split.source]
+    split = split_free_decays(traces, records, dt, omega[kept], zeta[kept], shapes, omega_se, zeta_se, refine)
+    finite = np.isfinite(split.omega_std) & np.isfinite(split.zeta_std) | (replicates is None)
+    rejected += [{"omega": float(w), "zeta": float(z), "reason": "no finite standard error (close-pair fit)"}
+                 for w, z in zip(split.omega[~finite], split.zeta[~finite])]
+    omega, zeta, omega_se, zeta_se = split.omega[finite], split.zeta[finite], split.omega_std[finite], \
+        split.zeta_std[finite]
+    shapes, refined, source = split.shapes[:, finite], split.refined[finite], split.source[finite]
+    modes = [modes[i] if i >= 0 else None for i in source]  # -1: found by the free-decay fit
+    fits = [fits[i] if i >= 0 else None for i in source]
     return Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
@@ -194,13 +227,39 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         damping=zeta.tolist(), omega_std=omega_se.tolist(), damping_std=zeta_se.tolist(),
         mpc=mpc(shapes).tolist(),
         mode_shapes_complex=[[[float(v.real), float(v.imag)] for v in col] for col in shapes.T],
-        details={"algorithm": "ssi-cov", "quantity": channels[0].quantity, "block_rows": p, "block_columns": q,
+        details={"algorithm": "ssi-cov", "quantity": _quantity(channels), "block_rows": p, "block_columns": q,
                  "references": r, "segments": segments, "max_order": order_cap, "uncertainty": uncertainty,
                  "orders": [md.order if md else None for md in modes],
                  "support": [md.support if md else None for md in modes],
                  "coherence": fits,
-                 "refined": split.refined.tolist(),
+                 "refined": refined.tolist(),
+                 "record_s": length,
+                 "rejected": sorted(rejected, key=lambda r: r["omega"]),
+                 "warnings": _warnings(free, f_low, length),
                  "stabilisation": _diagram(poles, flags)})
+
+
+def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations (k,) of omega rad/s and zeta over each mode's stable poles."""
+    values = [np.array([(by_order[n].omega[j], by_order[n].zeta[j]) for n, j in md.used]) for md in modes]
+    spread = np.array([v.std(axis=0) for v in values]).reshape(-1, 2)
+    return spread[:, 0], spread[:, 1]
+
+
+def _quantity(channels: list[Channel]) -> str:
+    """The channels' quantity, or ``mixed`` (each sensor's shape entry is then in its own quantity)."""
+    kinds = {c.quantity for c in channels}
+    return kinds.pop() if len(kinds) == 1 else "mixed"
+
+
+def _warnings(decay: bool, f_low: float, length: float) -> list[str]:
+    """What the record cannot support, said once: a stationary record of
+    under 2 periods of ``f_low`` Hz, the lowest frequency that carries 2 %
+    of its power."""
+    if decay or f_low * length >= 2:
+        return []
+    return [f"the record ({length:.4g} s) holds {f_low * length:.2g} periods of {f_low:.4g} Hz, the lowest "
+            f"frequency carrying 2 % of its power: modes there are not supported by it"]
 
 
 def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list[Mode],

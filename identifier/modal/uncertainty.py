@@ -39,9 +39,10 @@ interleaved blocks of half the lag span (free decay; shorter blocks share
 too many lagged samples between groups and the errors come out too small).
 Noise modes move far (small gaps between poles) and are not found again.
 With few groups the estimate has ``G - 1`` degrees of freedom; a mode not
-found in some replicate gets NaN (no error stated): in a free decay a mode
-that has died out within the first block of samples is seen by one group
-only. A mode whose correlation time exceeds the stationary segments (the
+found in some replicates gets the same formula over the ``G'`` replicates
+that found it (``G'`` for ``G``; NaN when ``G' < 2``): in a free decay a
+mode that has died out within the first block of samples is seen by one
+group only. A mode whose correlation time exceeds the stationary segments (the
 damped beam's first mode, 507 s, in 450 s segments) gets errors somewhat
 too small.
 """
@@ -145,8 +146,9 @@ class Replicates:
 def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Target]
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard errors (k,) of omega (rad/s) and zeta of the target modes
-    (``poles``: the full data's poles by order), NaN for a mode missing from
-    a replicate; and how many replicates missed each mode (k,)."""
+    (``poles``: the full data's poles by order) over the replicates that
+    found each (NaN when fewer than two did); and how many replicates
+    missed each mode (k,)."""
     space, U, groups = replicates.space(), replicates.U, replicates.groups
     if not targets:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
@@ -165,5 +167,10 @@ def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Tar
         for k, (members, _) in enumerate(targets):
             if found[g][k] and 2 * len(found[g][k]) >= len(members):
                 reps[g, k] = np.median(found[g][k], axis=0)
-    se = np.sqrt((groups - 1) / groups * np.sum((reps - reps.mean(axis=0)) ** 2, axis=0))
-    return se[:, 0], se[:, 1], np.sum(np.isnan(reps[:, :, 0]), axis=0)
+    found_by = np.isfinite(reps[:, :, :1])  # (G, k, 1)
+    count = found_by.sum(axis=0)  # (k, 1): replicates that found each mode
+    values = np.where(found_by, reps, 0.0)
+    mean = values.sum(axis=0) / np.maximum(count, 1)
+    spread = np.sum(np.where(found_by, (values - mean) ** 2, 0.0), axis=0)
+    se = np.where(count >= 2, np.sqrt((count - 1) / np.maximum(count, 1) * spread), np.nan)
+    return se[:, 0], se[:, 1], groups - count[:, 0]

@@ -1,0 +1,178 @@
+"""Whether the record supports a mode the SSI-cov stabilisation found, and
+standard errors that include the bias of a short record.
+
+A mode seen in the stabilisation diagram is reported only when the record
+itself can carry it; otherwise it is listed apart (``rejected``), with its
+reason. The tests, for a mode of natural frequency ``omega`` rad/s and
+damping ratio ``zeta`` in records of total length ``T`` s (several traces of
+a run add up as independent records):
+
+- periods: ``omega T / (2 pi) >= MIN_PERIODS`` in a stationary record. A
+  pole fitted to fewer periods of a random response is not told apart from
+  the slow trend of the excitation or the start-up transient. A free
+  response is deterministic: its poles show in a fraction of a period
+  above the noise, and the jackknife measures how well; it needs
+  ``FREE_PERIODS``;
+- decay times (stationary records only): ``zeta omega T >= MIN_DECAYS``
+  (with ``zeta`` at least ``ZETA_FLOOR``). A random response that holds
+  under a couple of correlation times of a mode has not forgotten its
+  initial state: its covariances are not those of a stationary response,
+  and the damping ratio is not determined;
+- stability over orders: stable at ``MIN_STABLE`` of the model orders or
+  more (the stabilisation's own threshold, ``min_fraction``, is lower: a
+  cluster of fewer is not even a candidate). The poles of the structure
+  repeat at every order past its own; poles that fit the noise of a short
+  or noisy record come and go;
+- repetition: found again by every jackknife replicate but at most one
+  (:func:`identifier.modal.uncertainty.jackknife`); a mode missed by more
+  is a pole of the covariance estimates' own noise;
+- finite errors: ``omega_std`` and ``damping_std`` finite and positive and
+  ``omega_std < MAX_RELATIVE omega`` (a pole as uncertain as that is no
+  estimate);
+- duplicates: two modes whose shapes agree (MAC above ``DUPLICATE_MAC``)
+  and whose frequencies the record does not resolve,
+
+      |omega_a - omega_b| < max(3 sqrt(se_a^2 + se_b^2), 2 pi / T,
+                                (zeta_a omega_a + zeta_b omega_b) / 2),
+
+  are one mode seen twice (a pole cluster split by the shape noise of a
+  short record); so are two modes of any shapes whose frequencies and
+  damping ratios agree far more closely than their errors allow for two
+  estimates (``|delta omega| < TWIN sqrt(se_a^2 + se_b^2)``, likewise
+  ``zeta``): one pole whose shape the record splits in two. The one of
+  more stable poles is kept.
+
+Temporal coherence (:mod:`identifier.modal`) is tested before these and its
+failures are listed with them.
+
+Short-record bias. In a stationary random response of ``T`` seconds the
+covariance estimates ``R_l`` of a mode of decay rate ``sigma = zeta omega``
+carry errors correlated over all lags, of relative size
+``1 / (sigma T)`` (the response's memory of its start and the finite
+averaging window; Bendat & Piersol's ``1 / (B_e T)`` with the half-power
+bandwidth ``B_e ~ zeta omega``). The identified pole ``s = -sigma + i
+omega_d`` then moves by ``|delta s| ~ sigma / (sigma T) = 1 / T`` rad/s,
+whatever the mode, and the delete-one-group jackknife, whose groups share
+that error, does not see it. Its standard deviation is added to the
+jackknife variance:
+
+    se_omega^2 = se_jk,omega^2 + (BIAS / T)^2 + se_order,omega^2,
+    se_zeta^2  = se_jk,zeta^2  + (BIAS / (omega T))^2 + se_order,zeta^2
+
+(``delta zeta = -delta Re s / omega`` to first order). The estimates of
+one mode at the model orders it is stable at (the medians of the
+stabilisation) scatter when the model orders fall short of what the record
+holds (noise and other modes take up part of the subspace): that scatter,
+the standard deviation over the mode's stable poles, is a bias the
+jackknife's replicates share, and it is added too (``se_order``, both
+kinds of record). A free decay's poles
+are deterministic (no excitation, only sensor noise): there is no
+``1 / T`` term. Assumes a linear
+time-invariant structure under broadband excitation; fails (too wide or too
+narrow intervals) when the excitation is far from white near the mode.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from structbench.models.mac import mac
+
+MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
+FREE_PERIODS = 1.0  # ... in a free response
+MIN_STABLE = 0.5  # least share of the model orders a reported mode is stable at
+MIN_DECAYS = 2.0  # least decay times 1 / (zeta omega) of a mode in a stationary record
+ZETA_FLOOR = 1e-4  # damping ratio at least this when counting decay times
+MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
+DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
+TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
+BIAS = 1.0  # the short-record bias's standard deviation, x 1 / T rad/s
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Per candidate mode (k,): reported or not and, when not, why (``""`` when reported)."""
+
+    keep: np.ndarray
+    reasons: list[str]
+
+
+def record_bias(omega: np.ndarray, length: float, decay: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations (k,) of the short-record bias of omega (rad/s) and
+    zeta of modes at ``omega`` (k,) rad/s in stationary records of total
+    ``length`` s: ``BIAS / T`` and ``BIAS / (omega T)``; zeros for free
+    decays (see the module docstring)."""
+    omega = np.asarray(omega, dtype=float)
+    if decay or length <= 0:
+        return np.zeros_like(omega), np.zeros_like(omega)
+    return np.full_like(omega, BIAS / length), BIAS / (np.maximum(omega, 1e-300) * length)
+
+
+def with_bias(omega: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray, length: float,
+              decay: bool, order_std: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``omega_std`` and ``zeta_std`` (k,) with the short-record bias
+    (:func:`record_bias`) and the model-order scatter ``order_std`` (omega,
+    zeta; each (k,)) added in quadrature; NaN stays NaN."""
+    bo, bz = record_bias(omega, length, decay)
+    so, sz = order_std if order_std is not None else (np.zeros_like(bo), np.zeros_like(bz))
+    return np.sqrt(omega_std**2 + bo**2 + so**2), np.sqrt(zeta_std**2 + bz**2 + sz**2)
+
+
+def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
+          missed: np.ndarray, support: np.ndarray, stable: np.ndarray, shapes: np.ndarray, length: float,
+          decay: bool, groups: int, errors: bool = True) -> Verdict:
+    """The verdict on candidate modes (k,): ``omega`` rad/s, ``zeta``, their
+    standard errors (bias included), ``missed`` (jackknife replicates that did
+    not find each), ``support`` (stable poles), ``stable`` (share of the
+    model orders each is stable at), complex ``shapes`` (m, k),
+    records of total ``length`` s, ``decay``: free responses; ``groups``:
+    jackknife replicates; ``errors``: standard errors were estimated (with
+    ``uncertainty="off"`` the repetition and error tests are skipped). Tests
+    and thresholds in the module docstring."""
+    k = omega.size
+    reasons = [""] * k
+    periods = omega * length / (2 * np.pi)
+    decays = np.maximum(zeta, ZETA_FLOOR) * omega * length
+    for i in range(k):
+        if periods[i] < (FREE_PERIODS if decay else MIN_PERIODS):
+            reasons[i] = f"{periods[i]:.3g} periods in the record (needs {FREE_PERIODS if decay else MIN_PERIODS:g})"
+        elif not decay and decays[i] < MIN_DECAYS:
+            reasons[i] = (f"{decays[i]:.3g} decay times 1 / (zeta omega) in the stationary record "
+                          f"(needs {MIN_DECAYS:g})")
+        elif stable[i] < MIN_STABLE:
+            reasons[i] = f"stable at {stable[i]:.0%} of the model orders (needs {MIN_STABLE:.0%})"
+        elif errors and missed[i] > 1:
+            reasons[i] = f"not found again by {int(missed[i])} of {groups} jackknife replicates"
+        elif errors and not (np.isfinite(omega_std[i]) and np.isfinite(zeta_std[i])
+                             and omega_std[i] > 0 and zeta_std[i] > 0):
+            reasons[i] = "no finite standard error"
+        elif errors and omega_std[i] > MAX_RELATIVE * omega[i]:
+            reasons[i] = f"omega_std {omega_std[i] / omega[i]:.2g} x omega (over {MAX_RELATIVE:g})"
+    keep = np.array([not r for r in reasons], dtype=bool)
+    if k > 1:
+        alike = mac(shapes, shapes) > DUPLICATE_MAC
+        se = np.where(np.isfinite(omega_std), omega_std, 0.0)
+        sz = np.where(np.isfinite(zeta_std), zeta_std, 0.0)
+        for i in np.argsort(-np.asarray(support), kind="stable"):  # the best supported first
+            if not keep[i]:
+                continue
+            for j in np.flatnonzero(keep):
+                if j == i or support[j] > support[i] or (support[j] == support[i] and j < i):
+                    continue
+                resolve = max(3 * np.hypot(se[i], se[j]), 2 * np.pi / length,
+                              0.5 * (abs(zeta[i]) * omega[i] + abs(zeta[j]) * omega[j]))
+                twins = (abs(omega[i] - omega[j]) < TWIN * np.hypot(se[i], se[j])
+                         and abs(zeta[i] - zeta[j]) < TWIN * np.hypot(sz[i], sz[j]))
+                if twins or (alike[i, j] and abs(omega[i] - omega[j]) < resolve):
+                    keep[j] = False
+                    reasons[j] = f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record)"
+    return Verdict(keep, reasons)
+
+
+def rejected(omega: np.ndarray, zeta: np.ndarray, verdict: Verdict) -> list[dict]:
+    """The modes not reported, as the results' ``details.rejected`` entries:
+    ``omega`` rad/s, ``zeta``, ``reason``."""
+    return [{"omega": float(w), "zeta": float(z), "reason": r}
+            for w, z, r, k in zip(omega, zeta, verdict.reasons, verdict.keep) if not k]
