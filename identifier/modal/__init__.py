@@ -268,6 +268,8 @@ def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list
     those of its stable poles (``members``, (order, index) pairs), the
     coherence of its most coherent pole there; their median. One
     :func:`coherence` call for the poles of every mode."""
+    if not modes:
+        return []
     picks = []  # per mode, per picked order: its poles there
     for md in modes:
         orders = sorted({n for n, _ in md.members})

@@ -31,7 +31,11 @@ own when it is stable at fewer than three of those; chosen in
 :mod:`identifier.modal`), when it is found at at least half of them. With ``theta_g``
 the replicates and ``theta_.`` their mean,
 
-    se^2 = (G - 1) / G sum_g (theta_g - theta_.)^2     (Quenouille-Tukey).
+    se^2 = (G - 1) / G sum_g (theta_g - theta_.)^2     (Quenouille-Tukey),
+
+stated times ``t_0.975(G - 1) / z_0.975`` (1.20 for ``G = 8``): the
+estimate has ``G - 1`` degrees of freedom, and the stated error is read
+as normal (``+- 1.96 se`` for 95 %), so it carries Student's quantile.
 
 Assumes the groups' noise contributions are nearly independent: contiguous
 segments longer than the response's correlation time (stationary records) or
@@ -53,6 +57,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.linalg as la
 from scipy.linalg.blas import dsyrk, dtrsm
+from scipy.stats import t as student_t
 
 from structbench.models.mac import paired_mac
 
@@ -172,5 +177,6 @@ def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Tar
     values = np.where(found_by, reps, 0.0)
     mean = values.sum(axis=0) / np.maximum(count, 1)
     spread = np.sum(np.where(found_by, (values - mean) ** 2, 0.0), axis=0)
-    se = np.where(count >= 2, np.sqrt((count - 1) / np.maximum(count, 1) * spread), np.nan)
+    widen = student_t.ppf(0.975, np.maximum(count - 1, 1)) / student_t.ppf(0.975, np.inf)
+    se = np.where(count >= 2, widen * np.sqrt((count - 1) / np.maximum(count, 1) * spread), np.nan)
     return se[:, 0], se[:, 1], groups - count[:, 0]
