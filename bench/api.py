@@ -227,8 +227,24 @@ def plot_modes(campaign_dir: str | Path, geometry: str | Path | None = None, ani
     animation per mode, into ``out`` (default ``CAMPAIGN_DIR/modes``).
     ``geometry``: a geometry file; default ``CAMPAIGN_DIR/geometry.json``,
     else the results' structure's node coordinates. Returns the files."""
-    from structbench.evaluation.mode_plots import plot_campaign_modes
-    return plot_campaign_modes(campaign_dir, geometry, animate, out, scale)
+    from structbench.evaluation.mode_plots import modal_results, plot_modes as plot
+    from structbench.labdata.geometry import FILE_NAME, geometry_from_model, read_geometry
+    from structbench.models import load_model
+    from structbench.models.errors import ModelError, UserError
+    folder = Path(campaign_dir)
+    results = modal_results(folder)
+    if geometry is None and (folder / FILE_NAME).is_file():
+        geometry = folder / FILE_NAME
+    if geometry is not None:
+        shape = read_geometry(geometry)
+    else:
+        structure = next((h.get("structure") or r.get("structure") for _, h, runs in results for r in runs[:1]), "")
+        try:
+            shape = geometry_from_model(load_model(structure))
+        except (ModelError, OSError):
+            raise UserError(f"no {FILE_NAME} in {folder} and the results' structure {structure!r} is not a model: "
+                            "give --geometry FILE", field="--geometry") from None
+    return plot(shape, results, Path(out) if out is not None else folder / "modes", animate, scale)
 
 
 def export_modes(campaign_dir: str | Path, out: str | Path, results: str | None = None) -> Path:
