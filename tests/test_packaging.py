@@ -49,7 +49,8 @@ def test_only_structbench_is_installed_at_top_level(venv):
                         "structbench/identifier/frf", "structbench/identifier/io", "structbench/identifier/least_squares",
                         "structbench/identifier/modal", "structbench/identifier/modal/close_pairs",
                         "structbench/identifier/modal/ssi", "structbench/identifier/perturbation",
-                        "structbench/identifier/rayleigh", "structbench/labdata", "structbench/models"]
+                        "structbench/identifier/rayleigh", "structbench/identifier/updating", "structbench/labdata",
+                        "structbench/models"]
     assert sorted(p.name for p in (site / "structbench" / "campaigns").glob("*.toml")) == sorted(
         p.name for p in (ROOT / "campaigns").glob("*.toml"))
 

@@ -1,0 +1,271 @@
+"""Sensitivity-based finite-element model updating from identified modes.
+
+The prior model (topology and the values a user postulates, ``p0`` (P,),
+SI units) is corrected by dimensionless scale factors ``alpha`` (q,) of its
+chosen element parameters, ``p_j = p0_j (1 + alpha_j)``, so that its modes
+match measured ones: ``k`` eigenvalues ``lambda_i = omega_i^2`` (rad^2/s^2)
+and shapes at ``m`` measured DOF (any scaling and sign).
+
+Residuals (n,) (:mod:`.residuals`), each divided by its stated standard error:
+
+- eigenvalues: ``(lambda_model - lambda_meas) / lambda_meas``, weight
+  ``lambda_meas / std(lambda_meas)`` (``std(lambda) = 2 omega std(omega)``);
+- shapes: the model shape at the measured DOF scaled to the measured one
+  (by weighted least squares; in the search, at the measured shape's largest
+  entry), minus the measured shape, per entry divided by its standard error. Eigenvector differences rather than MAC
+  values: ``1 - MAC`` is flat far from the answer and a poor guide.
+
+Where no standard errors are stated (shapes of a ``modal`` results file
+have none; a modal-data file may omit them) the weights are 1 and
+``details.weights`` says so; ``shape_std`` (relative to each shape's largest
+entry) states one for the shapes.
+
+Pairing and the two stages. At the prior the model modes are paired with
+the measured ones by an assignment on ``1 - MAC`` (a small frequency term
+breaks ties): measured mode ``i`` is the model's ``n_i``-th lowest mode.
+Far from the answer MAC values at a few sensors are no guide, so the
+search from each start keeps these mode numbers (the ``n_i``-th lowest model
+mode, whatever its shape) and uses the reference-entry shape scaling of
+:mod:`.residuals`, whose misfit grows without bound where the MAC-like one
+is flat. From the best start a second stage polishes with the least-squares
+shape scaling and pairs by MAC at every evaluation, following modes that
+switch order between iterations (``details.pairs``: the model mode of each
+measured one at the answer, 1-based; ``details.mode_switches``: evaluations
+whose pairing changed).
+
+Solution: ``min |r(alpha)|^2 + mu |alpha|^2`` subject to ``lower <= alpha <= upper``
+(``bounds``) by ``scipy.optimize.least_squares`` (trust-region reflective)
+with the analytic Jacobian: ``dlambda/dalpha = phi^T (dK - lambda dM) phi``
+(mass-normalised ``phi``) and eigenvector derivatives by Nelson's method
+(:mod:`.sensitivity`; exact, needs no other mode, so no truncation and no
+residual-flexibility correction). Dense LAPACK up to 400 DOF, above that
+sparse matrices, shift-invert Lanczos (``eigsh``) and a sparse LU per mode.
+
+Starts: the prior, plus ``starts - 1`` draws ``alpha ~ N(0, scatter^2)``
+clipped to the bounds (``numpy.random.default_rng(seed)``); the start of
+least misfit wins (``details.starts``: how many agree with it). Each start is
+solved with a tiny weight ``mu_floor = 1e-12 s_1^2`` (``s_1``: the largest
+singular value of the weighted sensitivity ``J`` at the prior) so that exactly
+undetermined directions stay at the prior.
+
+Regularisation weight ``mu`` (Tikhonov toward the prior, ``L = I`` on the
+relative changes), chosen from the data on the linearisation about that
+solution (``chi2(mu) = chi2_0 + sum_k s_k^2 (mu c_k / (s_k^2 + mu))^2``,
+``c = V^T alpha``):
+
+- every datum has a stated standard error (the noise level is known):
+  the discrepancy principle, ``chi2(mu) = n_eff - rank`` with ``n_eff`` the
+  data less one profiled scale per shape: the expected misfit of the
+  unregularised fit. The textbook target ``n_eff`` would pull a well-posed,
+  over-determined problem toward the prior by far more than its noise; a
+  misfit already above the target keeps the floor;
+- otherwise: generalised cross-validation, ``min chi2(mu) / (n_eff - tr A(mu))^2``,
+  ``tr A = sum s_k^2 / (s_k^2 + mu)``, which needs no noise level;
+- with no residual degrees of freedom (``n_eff <= rank``) neither applies: the
+  floor only. ``regularisation`` may force ``discrepancy``, ``gcv``, ``none``
+  or a number. The chosen weight is applied in a last nonlinear solve.
+
+Identifiability (``details.identifiability``): singular values of ``J`` at
+the solution (weighted, columns in ``alpha``), the numerical rank (above
+``rank_tol`` times the largest) and each undetermined combination (right
+singular vector below it) with its four largest components by label.
+Regularisation leaves these combinations at the prior instead of driving
+parameters onto the bounds; ``details.at_bound`` lists any that end there.
+
+Standard errors (``parameters[i].std_error``, SI units of the parameter):
+the linearised covariance of the regularised estimate,
+``H^-1 J^T S J H^-1``, ``H = J^T J + mu I``, times ``p0_j`` for ``alpha_j``.
+With stated standard errors ``S = I``: the Fisher information, which those
+errors make exact to first order and which needs no estimate from a few
+residuals (a residual-variance or sandwich estimate from ``n_eff - q`` degrees
+of freedom would be noisy where ``n_eff`` is close to ``q``); the misfit is
+tested against its chi-squared distribution and, above its 99 % quantile (the
+model cannot fit the data within their errors: a wrong model), the
+covariance is scaled by ``misfit / dof``. Without stated errors the weights
+are arbitrary and only a residual-based estimate is consistent: the
+sandwich ``S = diag(r_i^2 / (1 - h_i))`` with the leverages ``h`` of ``J``
+and of the profiled shape scales (HC2). Parameters loaded on an
+undetermined combination get ``std_error`` null.
+
+Assumptions: real normal modes of an undamped model (damping parameters are
+never updated; their kind is dropped from ``kinds``); measured modes are
+simple (a repeated eigenvalue has no eigenvector derivative: Nelson's
+equations are singular) and among the model's lowest ``2 k`` (at least
+``k + 4``); sensors measure DOF of the model (``dofs`` of the data, or the
+sensors of the results file, by (node, direction)).
+
+Fails (:class:`~structbench.identifier.IdentificationError` naming the item)
+when no modal data are given, a measured DOF is not a free DOF of the model,
+the model is not a finite-element :class:`~structbench.models.Structure`,
+or no parameter of the chosen kinds exists. An undetermined problem does not
+fail: it is reported.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structbench.models import ModelError, Structure
+
+from ..errors import IdentificationError
+from ..io.results import Identification, ParameterEstimate
+from . import data as modal_data
+from .data import ModalData
+from .residuals import Residuals
+from .sensitivity import AffineModel
+from .solve import FLOOR, choose_weight, errors, fit, identifiability
+
+__all__ = ["ModalData", "identify", "update", "DEFAULTS", "REGULARISATION"]
+
+REGULARISATION = ("auto", "discrepancy", "gcv", "none")
+DEFAULTS: dict[str, Any] = {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3,
+                            "seed": 0, "regularisation": "auto", "rank_tol": 1e-6, "shape_std": None,
+                            "modes": None, "max_nfev": 200, "tol": 1e-10}
+NEEDED = ("model updating needs identified modal data: --option modal=FILE with a modal results file "
+          "(DIR/results/modal.json from `structbench identify DIR --method modal`) or a modal-data file "
+          "(docs/modal-data-format.md)")
+
+
+def _sensors(model: Structure, data: ModalData) -> np.ndarray:
+    try:
+        return np.array([model.dof_index(n, d) for n, d in data.dofs], dtype=int)
+    except ModelError as err:
+        raise IdentificationError(f"{data.source}: {err}; the measured DOF must be free DOF of the prior model",
+                                  field="dofs") from None
+
+
+def _kinds(model: Structure, kinds: str | Sequence[str] | None) -> tuple[str, ...]:
+    chosen = model.unknown if kinds is None else ((kinds,) if isinstance(kinds, str) else tuple(kinds))
+    chosen = tuple(k.strip() for item in chosen for k in item.split(",") if k.strip())
+    bad = sorted(set(chosen) - {"mass", "stiffness", "damping"})
+    if bad:
+        raise IdentificationError(f"unknown parameter kind(s) {bad}; modal data update mass and stiffness",
+                                  field="kinds")
+    return tuple(k for k in chosen if k != "damping")
+
+
+def _as_data(source: ModalData | dict | str | Path) -> ModalData:
+    if isinstance(source, ModalData):
+        return source
+    if isinstance(source, dict):
+        return modal_data.from_document(source, "modal data")
+    return modal_data.load(source)
+
+
+def _with_shape_std(data: ModalData, shape_std: float | None) -> ModalData:
+    if shape_std is None:
+        return data
+    scale = np.nanmax(np.abs(data.shapes), axis=0, keepdims=True)
+    std = np.where(np.isnan(data.shape_std), float(shape_std) * scale, data.shape_std)
+    return ModalData(data.lam, data.lam_std, data.shapes, std, data.dofs, data.source)
+
+
+def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | Sequence[str] | None = None,
+           bounds: Sequence[float] = (-0.9, 3.0), starts: int = 1, scatter: float = 0.3, seed: int = 0,
+           regularisation: str | float = "auto", rank_tol: float = 1e-6, shape_std: float | None = None,
+           modes: Sequence[int] | None = None, max_nfev: int = 200, tol: float = 1e-10,
+           x0: Sequence[Sequence[float]] | None = None, repetition: int = 0,
+           tests: Sequence[str] = ()) -> Identification:
+    """Update the prior ``model`` to the modal ``data`` (see the module
+    docstring). ``bounds``: ``[lower, upper]`` on every ``alpha`` (``lower >
+    -1`` keeps parameters positive); ``modes``: 0-based measured modes to use;
+    ``x0``: explicit starting points in ``alpha`` (replace the prior and the
+    random draws)."""
+    if not isinstance(model, Structure):
+        raise IdentificationError(f"model updating needs a finite-element model; {model.name} is modal",
+                                  field="model")
+    if data is None:
+        raise IdentificationError(NEEDED, field="modal")
+    measured = _with_shape_std(_as_data(data).select(None if modes is None else list(modes)), shape_std)
+    sel = np.flatnonzero(model.kind_mask(_kinds(model, kinds)))
+    if sel.size == 0:
+        raise IdentificationError(f"{model.name} has no parameter of the kinds {kinds or model.unknown} "
+                                  "(damping is not updated from modes)", field="kinds")
+    labels = [model.parameters[j].label for j in sel]
+    affine = AffineModel(model, sel, _sensors(model, measured))
+    res = Residuals(affine, measured)
+    lo, hi = float(bounds[0]), float(bounds[1])
+    if not -1.0 <= lo < 0.0 < hi:
+        raise IdentificationError(f"bounds must satisfy -1 <= lower < 0 < upper, got {list(bounds)}", field="bounds")
+    lower, upper = np.full(sel.size, lo), np.full(sel.size, hi)
+    prior = res(np.zeros(sel.size))
+    s1 = float(np.linalg.norm(prior.J, 2)) if prior.J.size else 0.0
+    floor = FLOOR * max(s1**2, 1e-300)
+    if x0 is not None:
+        points = [np.asarray(x, dtype=float) for x in x0]
+    else:
+        rng = np.random.default_rng(seed)
+        points = [np.zeros(sel.size)] + [np.clip(rng.normal(0.0, scatter, sel.size), lo, hi)
+                                         for _ in range(max(int(starts), 1) - 1)]
+    search = Residuals(affine, measured, "entry")
+    search.fix_pairs(prior.pairs)
+    fits = [fit(search, x, floor, lower, upper, max_nfev, tol) for x in points]
+    best = min(fits, key=lambda f: f.cost)
+    agree = sum(np.max(np.abs(f.alpha - best.alpha)) < 1e-3 for f in fits)
+    best = fit(res, best.alpha, floor, lower, upper, max_nfev, tol)
+    known = all(res.stated.values())
+    n_eff = res.n_res - res.n_scales
+    ev = res(best.alpha)
+    rank = identifiability(ev.J, labels, rank_tol)["rank"]
+    mu, rule, why = choose_weight(ev.J, ev.r, best.alpha, n_eff, rank, known, floor,
+                                  str(regularisation) if isinstance(regularisation, str) else regularisation)
+    final = best if mu <= floor * (1 + 1e-9) else fit(res, best.alpha, mu, lower, upper, max_nfev, tol)
+    ev = res(final.alpha)
+    report = identifiability(ev.J, labels, rank_tol)
+    err = errors(res, ev, mu, known, report.pop("null_space"))
+    alpha = final.alpha
+    p0 = affine.p0[sel]
+    std = np.sqrt(np.clip(np.diag(err.cov), 0.0, None)) * np.abs(p0)
+    edge = np.isclose(alpha, lower, atol=1e-6) | np.isclose(alpha, upper, atol=1e-6)
+    params = [ParameterEstimate(lab, model.parameters[j].kind, model.parameters[j].unit, float(v0 * (1 + a)),
+                                None if void else float(s), float(v0))
+              for lab, j, v0, a, s, void in zip(labels, sel, p0, alpha, std, err.void)]
+    stated = res.stated
+    details = {
+        "data": measured.source, "modes": int(measured.lam.size), "sensors_dof": [list(d) for d in measured.dofs],
+        "n_data": res.n_res, "n_effective": n_eff, "parameters": labels, "alpha": alpha.tolist(),
+        "weights": {k: ("stated standard errors" if v else "unit (no standard errors stated)")
+                    for k, v in stated.items()},
+        "regularisation": {"rule": rule, "weight": mu, "floor": floor, "reason": why},
+        "identifiability": report, "std_errors": err.form, "misfit": err.extra["misfit"],
+        "dof": err.extra["dof"], "pairs": (ev.pairs + 1).tolist(), "mac": ev.mac.tolist(),
+        "mode_switches": res.switches + search.switches, "at_bound": [lab for lab, e in zip(labels, edge) if e],
+        "starts": {"count": len(points), "seed": seed, "scatter": scatter, "agreeing": int(agree),
+                   "costs": [f.cost for f in fits]},
+    }
+    omega = np.sqrt(np.clip(ev.lam, 0.0, None))
+    return Identification(
+        method="updating", structure=model.name, repetition=repetition, tests=list(tests),
+        status="converged" if final.status > 0 else "max-iterations",
+        message="" if final.status > 0 else final.message, parameters=params,
+        iterations=final.nfev, history=[p0.tolist(), [p.value for p in params]],
+        misfit_history=[float(np.sqrt(prior.r @ prior.r)), float(np.sqrt(ev.r @ ev.r))],
+        omega=omega.tolist(), eigenvalues=ev.lam.tolist(), details=details)
+
+
+def _modal_path(traces: Sequence[Any], given: str | None) -> Path:
+    folder = traces[0].path.parent if traces else Path.cwd()
+    folder = folder.parent if folder.name == "traces" else folder
+    if given is None:
+        default = folder / "results" / "modal.json"
+        if default.is_file():
+            return default
+        raise IdentificationError(NEEDED + f"; found no {default}", field="modal")
+    for candidate in (Path(given), folder / given, folder / "results" / given):
+        if candidate.is_file():
+            return candidate
+    raise IdentificationError(f"no modal data file {given!r} (looked in the working folder and in {folder})",
+                              field="modal")
+
+
+def identify(traces: Sequence[Any], model: Structure, modal: str | None = None, **options: Any) -> Identification:
+    """The registry's call: update ``model`` (the prior) to the modes of the
+    run of ``traces`` in ``modal`` (a results or modal-data file; default
+    ``DIR/results/modal.json`` of the campaign folder), options as :func:`update`."""
+    tests = [t.test for t in traces]
+    repetition = traces[0].repetition if traces else 0
+    data = modal_data.load(_modal_path(traces, modal), tests, repetition)
+    return update(model, data, repetition=repetition, tests=tests, **options)
