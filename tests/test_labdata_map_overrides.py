@@ -44,7 +44,8 @@ def write_duplicated(path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
-def _import(tmp_path: Path, capsys, *files: Path, map_text: str | None = None, out: str = "lab") -> tuple[int, str, str]:
+def _import(tmp_path: Path, capsys, *files: Path, map_text: str | None = None,
+            out: str = "lab") -> tuple[int, str, str]:
     args = ["import", *map(str, files), "--out", str(tmp_path / out)]
     if map_text is not None:
         (tmp_path / "map.toml").write_text(map_text)

@@ -159,8 +159,8 @@ def read_geometry(path: str | Path) -> Geometry:
                 tuple(_vector(a, f"{where}.axes") for a in c["axes"]), str(c.get("name", "")))
         geometry.lines = [{"id": int(ln.get("id", 0)), "name": str(ln.get("name", "")),
                            "nodes": [int(n) for n in ln["nodes"]]} for ln in doc.get("lines", [])]
-        geometry.elements = [{"id": int(e.get("id", 0)), "type": e.get("type", 0), "nodes": [int(n) for n in e["nodes"]]}
-                             for e in doc.get("elements", [])]
+        geometry.elements = [{"id": int(e.get("id", 0)), "type": e.get("type", 0),
+                              "nodes": [int(n) for n in e["nodes"]]} for e in doc.get("elements", [])]
     except (KeyError, TypeError, ValueError) as err:
         raise UserError(f"malformed geometry ({type(err).__name__}: {err})", field=path.name) from None
     check_nodes(geometry, path.name)
