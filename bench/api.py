@@ -201,9 +201,20 @@ def import_data(files: Sequence[str | Path], out: str | Path, map_file: str | Pa
     SI units from the files' unit fields, the sensor map (TOML) for what the
     files lack or what it overrides, ``name`` the campaign name. Returns the
     trace files; a bad file raises :class:`UserError` naming it and leaves no
-    folder behind. ``report`` receives one line per channel the map overrides."""
+    folder behind. ``report`` receives one line per channel the map overrides.
+    UFF files' geometry goes to ``out/geometry.json``, their modes (dataset
+    55) to ``out/results/``, their FRFs (dataset 58 function types 2-9) to
+    ``out/frf/*.h5`` (docs/labdata.md); the files written come after the traces."""
     from structbench.labdata.importer import import_files
-    return import_files(files, out, map_file, name, report)
+    return import_files(files, out, map_file, name, report, _write_imported_frf)
+
+
+def _write_imported_frf(path: Path, arrays: dict[str, Any]) -> Path:
+    """An FRF file (docs/frf-format.md) from the arrays of imported UFF spectra."""
+    from structbench.identifier.io.frf_files import ChannelInfo, Frf, write_frf
+    fields = {k: v for k, v in arrays.items() if k not in ("force", "responses")}
+    return write_frf(path, Frf(**fields, force=ChannelInfo(**arrays["force"]),
+                               responses=[ChannelInfo(**r) for r in arrays["responses"]]))
 
 
 def model_geometry(structure: str | Path, out: str | Path | None = None) -> dict[str, Any]:

@@ -31,6 +31,7 @@ from .signals import Signal, parse_name, uniform_dt
 from .uff55 import read_uff55, results_document
 from .uff58 import FUNCTION_TYPES, Record58, read_datasets
 from .uff_geometry import GEOMETRY_KINDS, read_geometry_datasets
+from .uff_spectra import SPECTRAL, frf_parts
 from .units import conversion, time_factor
 
 UFF_SUFFIXES = (".uff", ".unv", ".uf")
@@ -44,6 +45,9 @@ def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
         raise UserError(f"function type {record.function_type} ("
                         f"{FUNCTION_TYPES.get(record.function_type, 'not a time response')}): only time "
                         "responses (1) can be imported", field=f"{where} record 6")
+    if np.iscomplexobj(record.y):
+        raise UserError(f"ordinate data type {record.ordinate_type} is complex: not a time response",
+                        field=f"{where} record 7")
     if record.abscissa.data_type not in (0, 1, 17):
         raise UserError(f"abscissa data type {record.abscissa.data_type} is not time (17): no time axis",
                         field=f"{where} record 8")
@@ -61,12 +65,13 @@ def _uff_signal(file: str, record: Record58, smap: SensorMap) -> Signal:
 @dataclass
 class FileParts:
     """What one file holds: time ``signals`` (UFF 58, CSV, SEP005), its
-    ``geometry`` (UFF 15/2411, 82, 2412, 18/2420; None without) and modal
-    results ``runs`` (UFF 55)."""
+    ``geometry`` (UFF 15/2411, 82, 2412, 18/2420; None without), modal
+    results ``runs`` (UFF 55) and FRF file arrays ``frfs`` (spectral UFF 58)."""
 
     signals: list[Signal]
     geometry: Geometry | None = None
     runs: list[dict] = field(default_factory=list)
+    frfs: list[dict] = field(default_factory=list)
 
 
 def read_file(path: Path, smap: SensorMap) -> FileParts:
@@ -87,7 +92,9 @@ def read_file(path: Path, smap: SensorMap) -> FileParts:
         if not (records or geometry or runs):
             raise UserError(f"no dataset 58 (time data), 55 (modes) or geometry (15, 2411, 82, 2412, 18, 2420); "
                             f"found types: {', '.join(str(d.kind) for d in others) or 'none'}", field=path.name)
-        return FileParts([_uff_signal(path.name, r, smap) for r in records], geometry, runs)
+        spectral = [r for r in records if r.function_type in SPECTRAL]
+        return FileParts([_uff_signal(path.name, r, smap) for r in records if r.function_type not in SPECTRAL],
+                         geometry, runs, frf_parts(path.name, spectral, smap) if spectral else [])
     if suffix == ".csv":
         return FileParts(read_csv(path))
     if suffix == ".json":
@@ -154,25 +161,32 @@ def build_trace(path: Path, smap: SensorMap, campaign: str, report: Callable[[st
                  dict(test.get("noise", {})), {"source": path.name})
 
 
-def _write_new(path: Path, text: str) -> Path:
+def _write_new(path: Path, write: Callable[[Path], object]) -> Path:
     if path.exists():
         raise UserError("exists; import into a folder without it", field=str(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    write(tmp)
     tmp.replace(path)
     return path
 
 
+def _text(text: str) -> Callable[[Path], object]:
+    return lambda path: path.write_text(text)
+
+
 def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | Path | None = None,
-                 name: str | None = None, report: Callable[[str], None] | None = None) -> list[Path]:
+                 name: str | None = None, report: Callable[[str], None] | None = None,
+                 frf_writer: Callable[[Path, dict], object] | None = None) -> list[Path]:
     """Import ``files`` into the folder ``out``: time data to
     ``out/traces/<file stem>.h5`` (``out`` must be new or empty), geometry to
     ``out/geometry.json`` (docs/geometry-format.md), modal results (UFF 55)
-    to ``out/results/uff55-<file stem>.json``; without time data ``out`` may
-    be an existing campaign folder (to score the modes against its truth).
-    Returns the files written, traces first. ``report`` receives one line
-    per channel whose fields the sensor map overrides."""
+    to ``out/results/uff55-<file stem>.json``, FRFs (spectral UFF 58) to
+    ``out/frf/<file stem>[-<force>].h5`` through ``frf_writer(path, arrays)``
+    (the API's: this package writes no FRF files); without time data ``out``
+    may be an existing campaign folder (to score the modes against its
+    truth). Returns the files written, traces first. ``report`` receives one
+    line per channel whose fields the sensor map overrides."""
     out = Path(out)
     if not files:
         raise UserError("no input files", field="FILE")
@@ -193,15 +207,22 @@ def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | P
                 geometry.merge(fp.geometry, p.name)
     if geometry is not None:
         check_nodes(geometry, "FILE")
-    texts = {f"results/uff55-{p.stem}.json": json.dumps(results_document(fp.runs, campaign, smap.structure or "",
-                                                                         p.name), indent=1) + "\n"
-             for p, fp in zip(paths, parts) if fp.runs}
+    writes = {f"results/uff55-{p.stem}.json": _text(json.dumps(results_document(
+        fp.runs, campaign, smap.structure or "", p.name), indent=1) + "\n") for p, fp in zip(paths, parts) if fp.runs}
+    for p, fp in zip(paths, parts):
+        for arrays in fp.frfs:
+            if frf_writer is None:
+                raise UserError("holds FRFs (UFF 58 function types 2-9): import them through structbench.import_data",
+                                field=p.name)
+            stem = p.stem if len(fp.frfs) == 1 else f"{p.stem}-{arrays['force']['name']}"
+            writes[f"frf/{stem}.h5"] = (lambda a: lambda path: frf_writer(path, a | {"attrs": a["attrs"] | {
+                "campaign": campaign}}))(arrays)
     if geometry is not None:
-        texts[FILE_NAME] = json.dumps(geometry.document(), indent=1) + "\n"
+        writes[FILE_NAME] = _text(json.dumps(geometry.document(), indent=1) + "\n")
     if not traces:
         if out.exists() and not out.is_dir():
             raise UserError("is a file, expected a folder", field="--out")
-        return [_write_new(out / rel, text) for rel, text in texts.items()]
+        return [_write_new(out / rel, write) for rel, write in writes.items()]
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise UserError("exists and is not empty; import time data into a new folder", field="--out")
     tmp = out.with_name(f".{out.name}.import-{os.getpid()}")
@@ -209,11 +230,11 @@ def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | P
         (tmp / "traces").mkdir(parents=True)
         for stem, trace in traces:
             write_atomic(tmp / "traces" / f"{stem}.h5", trace_bytes(trace))
-        for rel, text in texts.items():
-            _write_new(tmp / rel, text)
+        for rel, write in writes.items():
+            _write_new(tmp / rel, write)
         if out.exists():
             out.rmdir()
         tmp.rename(out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    return [out / "traces" / f"{stem}.h5" for stem, _ in traces] + [out / rel for rel in texts]
+    return [out / "traces" / f"{stem}.h5" for stem, _ in traces] + [out / rel for rel in writes]

@@ -17,7 +17,9 @@ lines) and the data values (record 12):
   12 acceleration, 9/13 force, 17 time), length, force and temperature
   exponents, axis label, axis units label;
 - record 12: even spacing ``Y1 Y2 ...``, uneven ``X1 Y1 X2 Y2 ...``; ASCII
-  single precision ``6E13.5``, double ``4E20.12`` (uneven ``2(E13.5,E20.12)``).
+  single precision ``6E13.5``, double ``4E20.12`` (uneven ``2(E13.5,E20.12)``);
+  complex data (spectra, FRFs) as real and imaginary parts, uneven ``X1 RE1 IM1 ...``
+  (binary: all in the ordinate's precision, as pyuff writes them).
 
 Binary 58 (``58b``): the type line reads ``(I6,1A1,I6,I6,I12,I12,...)`` =
 58, ``b``, byte order (1 little, 2 big endian), floating-point format (2 =
@@ -38,8 +40,8 @@ import numpy as np
 from structbench.models.errors import UserError
 
 _END = re.compile(rb"^ *-1 *\r?$", re.M)
-_WIDTH = {2: 13, 4: 20}          # ASCII field width of an ordinate value
-_DTYPE = {2: "f4", 4: "f8"}      # binary item of an ordinate value
+_WIDTH = {2: 13, 4: 20, 5: 13, 6: 20}           # ASCII field width of an ordinate value (or part)
+_DTYPE = {2: "f4", 4: "f8", 5: "f4", 6: "f8"}   # binary item of an ordinate value (or part)
 FUNCTION_TYPES = {0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum",
                   4: "frequency response function", 6: "coherence", 9: "power spectral density"}
 
@@ -58,7 +60,8 @@ class Axis:
 @dataclass(frozen=True)
 class Record58:
     """One dataset 58: ``index`` is its 1-based position among the file's
-    datasets; ``x`` (n,) the abscissa and ``y`` (n,) the ordinate as written."""
+    datasets; ``x`` (n,) the abscissa and ``y`` (n,) the ordinate as written
+    (complex for ordinate data types 5 and 6); ``denominator`` record 10."""
 
     index: int
     id_lines: tuple[str, str, str, str, str]
@@ -74,6 +77,7 @@ class Record58:
     binary: bool = False
     ordinate_type: int = 4
     even: bool = True
+    denominator: Axis = Axis()
 
 
 class _Reader:
@@ -181,29 +185,32 @@ def _record(reader: _Reader, type_line: str) -> Record58:
     start, step = _float(reader, r7[30:43], 7, "abscissa minimum"), _float(reader, r7[43:56], 7, "abscissa increment")
     axes = [_axis(reader, reader.line(r), r) for r in (8, 9, 10, 11)]
     if ordinate_type not in _WIDTH:
-        raise reader.fail(f"ordinate data type {ordinate_type}: only real data (2 single, 4 double) "
-                          "are time records", 7)
+        raise reader.fail(f"ordinate data type {ordinate_type}: 2 (real single), 4 (real double), 5 (complex "
+                          "single) or 6 (complex double)", 7)
     if count < 2:
-        raise reader.fail(f"{count} values: a time record needs at least two", 7)
+        raise reader.fail(f"{count} values: a record needs at least two", 7)
     if even and not step > 0:
-        raise reader.fail(f"even spacing with abscissa increment {step:g}: no time axis", 7)
-    n_values = count * (1 if even else 2)
+        raise reader.fail(f"even spacing with abscissa increment {step:g}: no time axis (nor frequency axis)", 7)
+    complex_ = ordinate_type in (5, 6)
+    per_point = (1 if even else 2) + complex_  # [x,] y or [x,] re, im
     if binary:
-        values = _binary_values(reader, np.dtype(("<" if order == 1 else ">") + _DTYPE[ordinate_type]), n_values)
-        columns = [values] if even else [values[0::2], values[1::2]]
+        values = _binary_values(reader, np.dtype(("<" if order == 1 else ">") + _DTYPE[ordinate_type]),
+                                count * per_point)
+        columns = [values] if per_point == 1 else list(values.reshape(count, per_point).T)
     else:
         found = _END.search(reader.data, reader.pos)
         if found is None:
             raise reader.fail("no closing '    -1' (truncated)", 12)
         chunk, reader.pos = reader.data[reader.pos:found.start()], found.end()
         width = _WIDTH[ordinate_type]
-        widths = (width,) if even else (13, width)
+        widths = ((width,) if even else (13, width)) + ((width,) if complex_ else ())
         columns = _ascii_values(reader, chunk, widths, count)
     x = reader.even_axis(start, step, count) if even else columns[0]
+    y = columns[-2] + 1j * columns[-1] if complex_ else columns[-1]
     return Record58(reader.index, ids, _int(reader, r6[0:5], 6, "function type"),
                     _int(reader, r6[41:51], 6, "response node"), _int(reader, r6[51:55], 6, "response direction"),
                     _int(reader, r6[66:76], 6, "reference node"), _int(reader, r6[76:80], 6, "reference direction"),
-                    axes[0], axes[1], x, columns[-1], binary, ordinate_type, even)
+                    axes[0], axes[1], x, y, binary, ordinate_type, even, axes[2])
 
 
 @dataclass(frozen=True)
