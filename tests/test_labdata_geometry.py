@@ -89,6 +89,10 @@ def test_hand_written_geometry_only_file_imports_as_geometry_alone(tmp_path, cap
     np.testing.assert_allclose(geometry.direction(2, "x"), [0, 1, 0], atol=1e-15)  # node 2's own system
     np.testing.assert_allclose(geometry.direction(1, "w"), [0, 0, 1])
     assert geometry.direction(1, "theta") is None
+    geometry.displacement_systems[4] = 4  # cylindrical: x radial, y tangential at node 4 (r 1 m, theta 90 deg)
+    np.testing.assert_allclose(geometry.direction(4, "x"), [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(geometry.direction(4, "y"), [-1, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(geometry.direction(4, "z"), [0, 0, 1], atol=1e-15)
 
 
 def test_geometry_beside_the_traces(tmp_path, capsys):

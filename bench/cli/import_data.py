@@ -13,7 +13,7 @@ from pathlib import Path
 from structbench import api
 
 HELP = ("import measured data (UFF 58 ascii/binary, CSV, SEP005 JSON) into a trace folder; UFF geometry "
-        "(15/2411, 82, 2412, 18/2420) and modes (55) too")
+        "(15/2411, 82, 2412, 18/2420), modes (55) and spectra (58 types 2-9) too")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,10 +28,11 @@ def run(args: argparse.Namespace) -> int:
     written = api.import_data(args.files, args.out, args.map, args.name, overrides.append)
     for line in overrides:
         print(f"sensor map override: {line}")
-    traces = [p for p in written if p.suffix == ".h5"]
+    traces = [p for p in written if p.parent.name == "traces"]
     if traces:
         print(f"{len(traces)} trace file(s) in {args.out / 'traces'}")
+    kinds = {"results": "modal results", "frf": "FRFs"}
     for path in written:
-        if path.suffix == ".json":
-            print(f"{'geometry' if path.parent == args.out else 'modal results'}: {path}")
+        if path.parent.name != "traces":
+            print(f"{kinds.get(path.parent.name, 'geometry')}: {path}")
     return 0

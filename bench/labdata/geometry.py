@@ -81,11 +81,26 @@ class Geometry:
 
     def direction(self, node: int, name: str) -> np.ndarray | None:
         """Global unit vector (3,) of a displacement direction at a node (None
-        for rotations and unknown names)."""
+        for rotations and unknown names): x y z along the node's displacement
+        system's axes; in a cylindrical system radial, tangential, axial and
+        in a spherical one r, theta, phi at the node's position."""
         if name not in DIRECTIONS:
             return None
         system = self.systems.get(self.displacement_systems.get(node, 0), GLOBAL)
-        return np.asarray(DIRECTIONS[name]) @ np.asarray(system.axes)
+        axes = np.asarray(system.axes)
+        local = np.asarray(DIRECTIONS[name])
+        if system.kind != "cartesian" and node in self.nodes:
+            p = (np.asarray(self.nodes[node]) - np.asarray(system.origin)) @ axes.T
+            phi = math.atan2(p[1], p[0])
+            c, s = math.cos(phi), math.sin(phi)
+            if system.kind == "cylindrical":
+                basis = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+            else:
+                t = math.atan2(math.hypot(p[0], p[1]), p[2])
+                basis = np.array([[math.sin(t) * c, math.sin(t) * s, math.cos(t)],
+                                  [math.cos(t) * c, math.cos(t) * s, -math.sin(t)], [-s, c, 0.0]])
+            local = local @ basis
+        return local @ axes
 
     def merge(self, other: "Geometry", where: str) -> None:
         """Add ``other``'s parts; a node given twice at different places
