@@ -92,6 +92,6 @@ def duplicate_error(file: str, named: list[tuple[str, Mapped]]) -> UserError:
                 entry["direction"] = s.direction
             entries.append(entry)
     fix = map_text({}, entries, []).strip()
-    return UserError(f"channel(s) {sorted(twice)} appear twice: {'; '.join(parts)}. One of each is mislabelled; "
-                     "give its true node (and direction) in the sensor map (--map), e.g. for the later "
-                     f"dataset(s), with node the lowest free one (check it):\n\n{fix}\n", field=file)
+    return UserError(f"channel(s) {sorted(twice)} appear twice: {'; '.join(parts)}. One of each is mislabelled: "
+                     "the sensor map (--map) entry below moves the later dataset(s) to the lowest free node; "
+                     f"check that it is the true one, then paste it into the map:\n\n{fix}\n", field=file)
