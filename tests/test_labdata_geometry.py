@@ -16,6 +16,7 @@ import pyuff
 
 import structbench as sb
 from structbench.cli import main
+from structbench.identifier.io.traces import read_trace
 from structbench.labdata.geometry import read_geometry
 
 from test_labdata_map_overrides import dataset58
@@ -102,8 +103,11 @@ def test_geometry_beside_the_traces(tmp_path, capsys):
     source.write_text("\n".join(lines) + "\n")
     assert main(["import", str(source), "--out", str(tmp_path / "lab")]) == 0
     assert sorted(p.name for p in (tmp_path / "lab").iterdir()) == ["geometry.json", "traces"]
-    assert (tmp_path / "lab" / "traces" / "run1.h5").is_file()
     _check(json.loads((tmp_path / "lab" / "geometry.json").read_text()))
+    # the channels' locations come from the geometry's nodes (the map gives none)
+    trace = read_trace(tmp_path / "lab" / "traces" / "run1.h5")
+    np.testing.assert_allclose(trace.channels["acceleration_4_z"].location, EXPECTED[4], atol=1e-12)
+    np.testing.assert_allclose(trace.channels["acceleration_1_z"].location, EXPECTED[1], atol=1e-12)
 
 
 def test_length_unit_from_the_map_when_the_file_has_no_units_dataset(tmp_path):

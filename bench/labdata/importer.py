@@ -110,7 +110,8 @@ def read_signals(path: Path, smap: SensorMap) -> list[Signal]:
     return signals
 
 
-def _channel(mapped: Mapped, time: np.ndarray) -> tuple[str, ChannelData]:
+def _channel(mapped: Mapped, time: np.ndarray, nodes: dict[int, np.ndarray] | None = None
+             ) -> tuple[str, ChannelData]:
     s, entry = mapped.signal, mapped.entry
     missing = [k for k in ("unit", "node", "direction") if getattr(s, k) is None]
     if missing:
@@ -129,14 +130,16 @@ def _channel(mapped: Mapped, time: np.ndarray) -> tuple[str, ChannelData]:
     group = "excitation" if entry.get("excitation", s.group == "excitation") else "channels"
     attrs = {"source": s.source, "source_unit": unit.label, "si_factor": factor, "sign": s.sign} | mapped.attrs()
     return group, ChannelData(Channel(quantity, int(s.node), str(s.direction)), data,
-                              tuple(entry.get("location", (np.nan, np.nan, np.nan))),
+                              tuple(entry.get("location", (nodes or {}).get(int(s.node), (np.nan,) * 3))),
                               float(entry.get("noise_ratio", 0.0)), str(entry.get("noise_mode", "rms")), attrs)
 
 
 def build_trace(path: Path, smap: SensorMap, campaign: str, report: Callable[[str], None] | None = None,
-                signals: list[Signal] | None = None) -> Trace:
+                signals: list[Signal] | None = None, nodes: dict[int, np.ndarray] | None = None) -> Trace:
     """The trace of one file (of its ``signals`` when already read);
-    ``report`` receives one line per channel the sensor map overrides."""
+    ``report`` receives one line per channel the sensor map overrides;
+    ``nodes`` (the imported geometry's, m) give the channels' locations
+    where the map gives none."""
     signals = read_signals(path, smap) if signals is None else signals
     time = signals[0].time
     dt = uniform_dt(time)
@@ -146,7 +149,7 @@ def build_trace(path: Path, smap: SensorMap, campaign: str, report: Callable[[st
     named = []
     for signal in signals:
         mapped = apply_map(signal, smap)
-        group, data = _channel(mapped, time)
+        group, data = _channel(mapped, time, nodes)
         groups[group].append(data)
         named.append((f"{group}/{data.channel.name}", mapped))
         if mapped.changed and report is not None:
@@ -197,8 +200,6 @@ def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | P
     if len(set(stems)) < len(stems):
         raise UserError("two input files have the same name (without suffix)", field="FILE")
     parts = [read_file(p, smap) for p in paths]
-    traces = [(p.stem, build_trace(p, smap, campaign, report, fp.signals)) for p, fp in zip(paths, parts)
-              if fp.signals]
     geometry = None
     for p, fp in zip(paths, parts):
         if fp.geometry is not None:
@@ -207,6 +208,9 @@ def import_files(files: Sequence[str | Path], out: str | Path, map_file: str | P
                 geometry.merge(fp.geometry, p.name)
     if geometry is not None:
         check_nodes(geometry, "FILE")
+    nodes = {n: tuple(float(v) for v in xyz) for n, xyz in geometry.nodes.items()} if geometry else None
+    traces = [(p.stem, build_trace(p, smap, campaign, report, fp.signals, nodes)) for p, fp in zip(paths, parts)
+              if fp.signals]
     writes = {f"results/uff55-{p.stem}.json": _text(json.dumps(results_document(
         fp.runs, campaign, smap.structure or "", p.name), indent=1) + "\n") for p, fp in zip(paths, parts) if fp.runs}
     for p, fp in zip(paths, parts):
