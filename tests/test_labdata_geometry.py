@@ -186,3 +186,13 @@ def test_model_geometry_from_node_coordinates(tmp_path):
     modal = sb.model_geometry("ch5-simply-supported-beam")
     assert modal["lines"][0]["nodes"] == list(range(1, 11)) and not modal["elements"]
     read_geometry(tmp_path / "geometry.json")  # the reader accepts what the model gives
+
+
+def test_node_records_of_blank_separated_values(tmp_path):
+    """A dataset 15 whose lines do not keep the columns (some exporters write
+    free format) is read by its seven values."""
+    source = tmp_path / "free.unv"
+    source.write_text("    -1\n    15\n1 0 0 8 0.5 1.5 -2.0\n2 0 0 8 1 2 3D0\n    -1\n")
+    sb.import_data([source], tmp_path / "lab")
+    doc = json.loads((tmp_path / "lab" / "geometry.json").read_text())
+    assert [n["xyz"] for n in doc["nodes"]] == [[0.5, 1.5, -2.0], [1.0, 2.0, 3.0]]

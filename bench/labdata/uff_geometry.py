@@ -119,9 +119,20 @@ def _nodes(f: _Fields, raw: dict[int, tuple[int, int, list[float], str]]) -> Non
     while f.more():
         if f.dataset.kind == 15:
             text = f.line(1)
-            head = _Fields(f.file, Dataset(f.dataset.index, 15, (text[:40],)))
-            label, system, displacement, _ = head.ints(1, 4, "node label, coordinate systems, color")
-            xyz = _Fields(f.file, Dataset(f.dataset.index, 15, (text[40:],))).floats(1, 3, 13, "coordinates")
+            words = text.replace("D", "E").replace("d", "e").split()
+            try:
+                head = _Fields(f.file, Dataset(f.dataset.index, 15, (text[:40],)))
+                label, system, displacement, _ = head.ints(1, 4, "node label, coordinate systems, color")
+                xyz = _Fields(f.file, Dataset(f.dataset.index, 15, (text[40:],))).floats(1, 3, 13, "coordinates")
+            except UserError:
+                if len(words) != 7:
+                    raise f.fail(f"{text.strip()[:60]!r} is not a node record 4I10,1P3E13.5 (label, systems, "
+                                 "color, x y z)", 1) from None
+                try:
+                    label, system, displacement = (int(w) for w in words[:3])
+                    xyz = [float(w) for w in words[4:]]
+                except ValueError:
+                    raise f.fail(f"{text.strip()[:60]!r} is not a node record 4I10,1P3E13.5", 1) from None
         else:
             label, system, displacement, _ = f.ints(1, 4, "node label, coordinate systems, color")
             xyz = f.floats(2, 3, 25, "coordinates")
