@@ -72,20 +72,32 @@ singular vector below it) with its four largest components by label.
 Regularisation leaves these combinations at the prior instead of driving
 parameters onto the bounds; ``details.at_bound`` lists any that end there.
 
-Standard errors (``parameters[i].std_error``, SI units of the parameter):
-the linearised covariance of the regularised estimate,
-``H^-1 J^T S J H^-1``, ``H = J^T J + mu I``, times ``p0_j`` for ``alpha_j``.
-With stated standard errors ``S = I``: the Fisher information, which those
-errors make exact to first order and which needs no estimate from a few
-residuals (a residual-variance or sandwich estimate from ``n_eff - q`` degrees
-of freedom would be noisy where ``n_eff`` is close to ``q``); the misfit is
-tested against its chi-squared distribution and, above its 99 % quantile (the
-model cannot fit the data within their errors: a wrong model), the
-covariance is scaled by ``misfit / dof``. Without stated errors the weights
-are arbitrary and only a residual-based estimate is consistent: the
-sandwich ``S = diag(r_i^2 / (1 - h_i))`` with the leverages ``h`` of ``J``
-and of the profiled shape scales (HC2). Parameters loaded on an
-undetermined combination get ``std_error`` null.
+Standard errors (``parameters[i].std_error``, SI units of the parameter),
+linearised at the answer, ``H = J^T J + mu I``, times ``p0_j`` for ``alpha_j``:
+
+- every datum has a stated standard error: ``cov = H^-1``, the inverse of
+  the Fisher information plus the regulariser's. Those errors make the
+  Fisher information exact to first order, and it needs no estimate from a
+  few residuals (a residual-variance or sandwich estimate with
+  ``n_eff - q`` degrees of freedom is noisy where ``n_eff`` is close to
+  ``q``). Adding ``mu I`` (Tikhonov read as a Gaussian prior, the posterior
+  covariance) widens the intervals of the directions the regulariser pulls
+  toward the prior by about the bias it causes there, which the frequentist
+  ``H^-1 J^T J H^-1`` ignores (its 95 % intervals held the truth in under
+  90 % of a noisy SMU-frame Monte Carlo; ``benchmarks/updating_smu.py``
+  measures this form). The misfit is tested against its chi-squared
+  distribution and, above its 99 % quantile (the model cannot fit the data
+  within their errors: a wrong model), the covariance is scaled by
+  ``misfit / dof`` (``details.std_errors`` says so);
+- otherwise the weights are arbitrary and only a residual-based estimate is
+  consistent: the sandwich ``H^-1 J^T S J H^-1``,
+  ``S = diag(r_i^2 / (1 - h_i))`` with the leverages ``h`` of ``J`` and of the
+  profiled shape scales (HC2; too small, and its intervals too short, when
+  ``n_eff - q`` is small).
+
+Parameters loaded on an undetermined combination (over 1 % of their unit
+vector in that subspace) get ``std_error`` null: the data say nothing about
+them and the regularised value is the prior's.
 
 Assumptions: real normal modes of an undamped model (damping parameters are
 never updated; their kind is dropped from ``kinds``); measured modes are
@@ -123,7 +135,7 @@ __all__ = ["ModalData", "identify", "update", "DEFAULTS", "REGULARISATION"]
 REGULARISATION = ("auto", "discrepancy", "gcv", "none")
 DEFAULTS: dict[str, Any] = {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3,
                             "seed": 0, "regularisation": "auto", "rank_tol": 1e-6, "shape_std": None,
-                            "modes": None, "max_nfev": 200, "tol": 1e-10}
+                            "modes": None, "parameters": None, "max_nfev": 200, "tol": 1e-10}
 NEEDED = ("model updating needs identified modal data: --option modal=FILE with a modal results file "
           "(DIR/results/modal.json from `structbench identify DIR --method modal`) or a modal-data file "
           "(docs/modal-data-format.md)")
@@ -166,12 +178,15 @@ def _with_shape_std(data: ModalData, shape_std: float | None) -> ModalData:
 def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | Sequence[str] | None = None,
            bounds: Sequence[float] = (-0.9, 3.0), starts: int = 1, scatter: float = 0.3, seed: int = 0,
            regularisation: str | float = "auto", rank_tol: float = 1e-6, shape_std: float | None = None,
-           modes: Sequence[int] | None = None, max_nfev: int = 200, tol: float = 1e-10,
+           modes: Sequence[int] | None = None, parameters: Sequence[str] | None = None,
+           max_nfev: int = 200, tol: float = 1e-10,
            x0: Sequence[Sequence[float]] | None = None, repetition: int = 0,
            tests: Sequence[str] = ()) -> Identification:
     """Update the prior ``model`` to the modal ``data`` (see the module
     docstring). ``bounds``: ``[lower, upper]`` on every ``alpha`` (``lower >
     -1`` keeps parameters positive); ``modes``: 0-based measured modes to use;
+    ``parameters``: labels (``stiffness[3]``) to update, of the chosen kinds
+    (default: all of them; the others stay at the prior);
     ``x0``: explicit starting points in ``alpha`` (replace the prior and the
     random draws)."""
     if not isinstance(model, Structure):
@@ -181,6 +196,14 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
         raise IdentificationError(NEEDED, field="modal")
     measured = _with_shape_std(_as_data(data).select(None if modes is None else list(modes)), shape_std)
     sel = np.flatnonzero(model.kind_mask(_kinds(model, kinds)))
+    if parameters is not None:
+        wanted = [parameters] if isinstance(parameters, str) else list(parameters)
+        known = {model.parameters[j].label: j for j in sel}
+        missing = [w for w in wanted if w not in known]
+        if missing:
+            raise IdentificationError(f"no parameter {', '.join(missing)} of the kinds {_kinds(model, kinds)} in "
+                                      f"{model.name}", field="parameters")
+        sel = np.array(sorted(known[w] for w in wanted), dtype=int)
     if sel.size == 0:
         raise IdentificationError(f"{model.name} has no parameter of the kinds {kinds or model.unknown} "
                                   "(damping is not updated from modes)", field="kinds")

@@ -65,7 +65,7 @@ class Residuals:
         self.model, self.data, self.scaling = model, data, scaling
         k = data.lam.size
         self.k = k
-        self.count = min(model.n, k + (extra_modes if extra_modes is not None else max(k, 4)))
+        self.count = min(model.n, k + (extra_modes if extra_modes is not None else max(k // 2, 4)))
         self.shaped = ~np.all(np.isnan(data.shapes), axis=0)
         self.rel_std = np.where(np.isfinite(data.lam_std) & (data.lam_std > 0), data.lam_std / data.lam, 1.0)
         self.b = np.nan_to_num(data.shapes)
@@ -112,7 +112,8 @@ class Residuals:
             return self._cache[1]
         model = self.model
         M, K = model.matrices(alpha)
-        lam_all, phi_all = model.modes(M, K, self.count)
+        lam_all, phi_all = model.modes(M, K, self.count, self.k + 2 if self.numbers is None
+                                       else int(np.max(self.numbers)) + 1)
         if self.numbers is None:
             pairs = self.pair(lam_all, phi_all[model.sensors])
             if self._last_pairs is not None and np.any(pairs != self._last_pairs):

@@ -44,8 +44,16 @@ def fit(res: Residuals, x0: np.ndarray, mu: float, lower: np.ndarray, upper: np.
 
     x0 = np.clip(x0, lower + 1e-9 * (upper - lower), upper - 1e-9 * (upper - lower))
     out = least_squares(fun, x0, jac, bounds=(lower, upper), method="trf", x_scale="jac",
-                        ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
+                        ftol=tol, xtol=tol, gtol=None, max_nfev=max_nfev)
     return Fit(out.x, float(out.cost), int(out.nfev), int(out.status), str(out.message))
+
+
+def _svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (q,) (zeros appended when J has fewer rows than
+    columns) and every right singular vector ``Vt`` (q, q) of ``J`` (n, q)."""
+    q = J.shape[1]
+    _, s, Vt = np.linalg.svd(J, full_matrices=J.shape[0] < q)
+    return np.concatenate([s, np.zeros(q - s.size)]), Vt
 
 
 def _chi2_curve(s: np.ndarray, c: np.ndarray, chi2_min: float):
@@ -67,8 +75,7 @@ def choose_weight(J: np.ndarray, r: np.ndarray, alpha: np.ndarray, n_eff: int, r
     if rule == "none":
         return floor, "none", "regularisation = none: only the floor that keeps undetermined directions at the prior"
     rule = ("discrepancy" if known else "gcv") if rule == "auto" else rule
-    _, s, Vt = np.linalg.svd(J, full_matrices=True)
-    s = np.concatenate([s, np.zeros(Vt.shape[0] - s.size)])
+    s, Vt = _svd(J)
     c = Vt @ alpha
     chi2_min = float(r @ r)
     chi2 = _chi2_curve(s, c, chi2_min)
@@ -95,11 +102,10 @@ def choose_weight(J: np.ndarray, r: np.ndarray, alpha: np.ndarray, n_eff: int, r
 def identifiability(J: np.ndarray, labels: list[str], rank_tol: float) -> dict[str, Any]:
     """SVD of the weighted sensitivity ``J`` (n, q) in the scale factors: the
     numerical rank (singular values above ``rank_tol`` times the largest) and
-    each undetermined combination (right singular vector below it) with its
-    largest components by label."""
+    each undetermined combination (right singular vector below it, ``vector``
+    over the parameters) with its four largest components by label."""
     q = J.shape[1]
-    _, s, Vt = np.linalg.svd(J, full_matrices=True)
-    s = np.concatenate([s, np.zeros(q - s.size)])
+    s, Vt = _svd(J)
     rank = int(np.sum(s > rank_tol * s[0])) if s[0] > 0 else 0
     combos = []
     for k in range(rank, q):
@@ -107,7 +113,7 @@ def identifiability(J: np.ndarray, labels: list[str], rank_tol: float) -> dict[s
         top = np.argsort(-np.abs(v))[:4]
         combos.append({"singular_value": float(s[k]),
                        "components": [{"label": labels[j], "weight": round(float(v[j]), 4)} for j in top],
-                       "text": " ".join(f"{v[j]:+.2f} {labels[j]}" for j in top)})
+                       "text": " ".join(f"{v[j]:+.2f} {labels[j]}" for j in top), "vector": v.tolist()})
     return {"rank": rank, "parameters": q, "rank_tol": rank_tol, "singular_values": s.tolist(),
             "undetermined": combos, "null_space": Vt[rank:]}
 
@@ -124,11 +130,12 @@ class Errors:
 
 
 def errors(res: Residuals, ev: Evaluation, mu: float, known: bool, null_space: np.ndarray) -> Errors:
-    """Linearised covariance of the regularised estimate,
-    ``H^-1 J^T S J H^-1`` with ``H = J^T J + mu I``: ``S = I`` (stated
-    standard errors: the Fisher information; multiplied by ``chi2 / dof``
-    when the misfit exceeds its 99 % quantile, a sign of model error), else
-    the sandwich ``S = diag(r_i^2 / (1 - h_i))`` (leverage-corrected, HC2)."""
+    """Linearised covariance of the regularised estimate, ``H = J^T J + mu I``:
+    stated standard errors: ``H^-1``, the inverse of the Fisher information
+    plus the regulariser's (the posterior covariance of Tikhonov read as a
+    Gaussian prior), multiplied by ``chi2 / dof`` when the misfit exceeds its
+    99 % quantile (a sign of model error); otherwise the sandwich
+    ``H^-1 J^T S J H^-1``, ``S = diag(r_i^2 / (1 - h_i))`` (leverage-corrected, HC2)."""
     J, r = ev.J, ev.r
     H = J.T @ J + mu * np.eye(J.shape[1])
     Hinv = np.linalg.pinv(H)
@@ -138,11 +145,11 @@ def errors(res: Residuals, ev: Evaluation, mu: float, known: bool, null_space: n
     chi2 = float(r @ r)
     extra: dict[str, Any] = {"misfit": chi2, "dof": dof}
     if known:
-        scale, form = 1.0, "fisher (stated standard errors)"
+        scale, form = 1.0, "fisher + regulariser, inverse (stated standard errors)"
         if dof > 0.5 and chi2 > chi2_dist.ppf(0.99, dof):
             scale = chi2 / dof
-            form = f"fisher scaled by misfit/dof = {scale:.3g} (misfit above its 99 % quantile: model error)"
-        cov = scale * Hinv @ (J.T @ J) @ Hinv
+            form = f"fisher + regulariser, inverse, scaled by misfit/dof = {scale:.3g} (misfit above its 99 % quantile: model error)"
+        cov = scale * Hinv
     else:
         h = np.clip(np.diag(A) + res.leverage_of_scales(ev), 0.0, 0.99)
         cov = Hinv @ (J.T * (r**2 / (1 - h))) @ J @ Hinv
