@@ -230,14 +230,15 @@ def model_geometry(structure: str | Path, out: str | Path | None = None) -> dict
 
 
 def plot_modes(campaign_dir: str | Path, geometry: str | Path | None = None, animate: str | None = None,
-               out: str | Path | None = None, scale: float = 0.1) -> list[Path]:
+               out: str | Path | None = None, scale: float = 0.1, run: int = 0) -> list[Path]:
     """Draw each mode of the modal results ``CAMPAIGN_DIR/results/*.json``
     on the geometry: one PNG per mode (undeformed in grey, deformed in
     colour, the largest displacement ``scale`` times the geometry's size)
     and, with ``animate`` ``"gif"`` (Pillow) or ``"html"`` (JavaScript), one
     animation per mode, into ``out`` (default ``CAMPAIGN_DIR/modes``).
     ``geometry``: a geometry file; default ``CAMPAIGN_DIR/geometry.json``,
-    else the results' structure's node coordinates. Returns the files."""
+    else the results' structure's node coordinates. ``run``: which run of
+    each results file (0-based; the last if it has fewer). Returns the files."""
     from structbench.evaluation.mode_plots import modal_results, plot_modes as plot
     from structbench.labdata.geometry import FILE_NAME, geometry_from_model, read_geometry
     from structbench.models import load_model
@@ -255,7 +256,7 @@ def plot_modes(campaign_dir: str | Path, geometry: str | Path | None = None, ani
         except (ModelError, OSError):
             raise UserError(f"no {FILE_NAME} in {folder} and the results' structure {structure!r} is not a model: "
                             "give --geometry FILE", field="--geometry") from None
-    return plot(shape, results, Path(out) if out is not None else folder / "modes", animate, scale)
+    return plot(shape, results, Path(out) if out is not None else folder / "modes", animate, scale, run)
 
 
 def export_modes(campaign_dir: str | Path, out: str | Path, results: str | None = None) -> Path:

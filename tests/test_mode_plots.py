@@ -138,3 +138,12 @@ def test_plotting_leaves_pyplot_alone(tmp_path):
             f"before = backend(); import structbench as sb; sb.plot_modes({str(folder)!r}, animate='gif'); "
             "assert 'matplotlib.pyplot' not in sys.modules, 'pyplot imported'; assert backend() == before")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=300)
+
+
+def test_undrawn_sensors_are_named_in_the_title(tmp_path):
+    geometry = geometry_from_model(load_model("ch3-free-free-beam"))
+    view = mode_view(geometry, ["acceleration_1_w", "acceleration_2_theta", "acceleration_99_w"],
+                     np.array([1.0, 0.5, 0.2]), "beam")
+    assert "2 of 3 sensors not drawn" in mode_figure(view).axes[0].get_title()
+    with pytest.raises(sb.UserError, match="no sensor"):
+        mode_view(geometry, ["acceleration_99_w"], np.array([1.0]), "beam")

@@ -24,10 +24,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, metavar="DIR2", help="folder for the plots (default DIR/modes)")
     parser.add_argument("--scale", type=float, default=0.1,
                         help="largest displacement as a fraction of the geometry's size (default 0.1)")
+    parser.add_argument("--run", type=int, default=0, help="which run of each results file (default 0, the first)")
 
 
 def run(args: argparse.Namespace) -> int:
-    written = api.plot_modes(args.campaign_dir, args.geometry, args.animate, args.out, args.scale)
+    written = api.plot_modes(args.campaign_dir, args.geometry, args.animate, args.out, args.scale, args.run)
     for path in written:
         print(path)
     return 0

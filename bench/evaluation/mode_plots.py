@@ -72,6 +72,9 @@ def mode_view(geometry: Any, sensors: list[str], shape: np.ndarray, title: str, 
     if not placed:
         raise UserError(f"no sensor of {sensors[:4]}... is a translation at a node of the geometry",
                         field="--geometry")
+    if placed < len(sensors):
+        title += (f"\n({len(sensors) - placed} of {len(sensors)} sensors not drawn: rotations or nodes not in "
+                  "the geometry)")
     size = float(np.linalg.norm(positions.max(0) - positions.min(0))) or 1.0
     peak = float(np.abs(moved).max())
     displacement = moved * (scale * size / peak if peak > 0 else 0.0)

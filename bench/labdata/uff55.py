@@ -216,9 +216,10 @@ def write_uff55(path: str | Path, runs: list[dict[str, Any]], title: str) -> Pat
             code = CODES.get(direction)
             if code is None:
                 raise UserError(f"direction {direction!r} of sensor {run['sensors'][row]!r} has no UFF direction "
-                                f"code ({', '.join(CODES)})", field=f"runs[{r}].sensors")
+                                f"code ({', '.join(CODES)})", field=f"{title} runs[{r}].sensors")
             if code in nodes.setdefault(node, {}):
-                raise UserError(f"two sensors at node {node} direction {direction!r}", field=f"runs[{r}].sensors")
+                raise UserError(f"two sensors at node {node} direction {direction!r}",
+                                field=f"{title} runs[{r}].sensors")
             nodes[node][code], names[code] = row, direction
         ndv = 6 if any(d in ROTATIONS for _, _, d in sensors) else 3
         quantities = {q for q, _, _ in sensors}
