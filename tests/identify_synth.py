@@ -95,3 +95,39 @@ def cantilever_trace(path: str | Path, noise: dict[str, float] | None = None) ->
     return write_trace(path, model, response, 0.05,
                        [("displacement", 7, "w"), ("displacement", 2, "theta"), ("force", 7, "w")],
                        noise=noise, test="a", excitation_attrs={"omega": 0.5})
+
+
+def memory_trace(model, response: dict[str, np.ndarray], dt: float, sensors: list[tuple[str, int, str]],
+                 noise: dict[str, float] | None = None, seed: int = 0, name: str = "r.h5",
+                 repetition: int = 0) -> "Trace":
+    """Like :func:`write_trace` (rms-mode noise ``noise[quantity]`` from numpy
+    Generator ``seed``, declared on each channel) but an in-memory
+    :class:`Trace`, no file."""
+    from structbench.identifier.io.traces import Channel, Trace
+
+    noise = noise or {}
+    rng = np.random.default_rng(seed)
+    n = response["force"].shape[0]
+    channels = {}
+    for quantity, node, direction in sensors:
+        clean = response[quantity][:, model.dof_index(node, direction)]
+        ratio = noise.get(quantity, 0.0)
+        data = clean + ratio * np.sqrt(np.mean(clean**2)) * rng.standard_normal(n)
+        cname = f"{quantity}_{node}_{direction}"
+        channels[cname] = Channel(cname, data, quantity, UNITS[quantity][direction == "theta"], node, direction,
+                                  np.array(_location(model, node)), ratio, "rms")
+    return Trace(path=Path(name), time=np.arange(n) * dt, dt=dt, step=dt, channels=channels, excitation={},
+                 attrs={"test": "test", "repetition": repetition, "structure": model.name})
+
+
+def oscillator(m: float = 1.0, c: float = 10.0, k: float = 1.0e4):
+    """A 1-DOF oscillator (node 1, direction x; node 0 fixed): mass ``m`` kg,
+    dashpot ``c`` N s/m, spring ``k`` N/m, all three unknown."""
+    from structbench.models.toml_model import structure_from_dict
+
+    return structure_from_dict({
+        "name": "oscillator", "unknown": ["mass", "damping", "stiffness"],
+        "nodes": [{"id": 0, "x": 0.0}, {"id": 1, "x": 1.0}], "supports": [{"node": 0, "fix": ["x"]}],
+        "elements": [{"type": "mass", "nodes": [1], "dir": "x", "m": m},
+                     {"type": "spring", "nodes": [0, 1], "dir": "x", "k": k},
+                     {"type": "dashpot", "nodes": [0, 1], "dir": "x", "c": c}]})

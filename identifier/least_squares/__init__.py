@@ -38,6 +38,7 @@ import numpy as np
 from structbench.models import ModelError, Structure
 
 from .bias_compensated import solve_compensated
+from .colored import solve_colored
 from ..errors import IdentificationError
 from .estimate import Estimate
 from .integrate import METHODS, integrate
@@ -45,6 +46,7 @@ from .noise_levels import estimate_sigma
 from .ols import WEIGHTINGS, solve
 from ..io.results import Identification, ParameterEstimate
 from ..io.traces import Channel, Trace
+from .quantities import prefiltered_run, response_channels
 
 RCOND = 1e-7
 INTEGRATIONS = ("auto",) + METHODS
@@ -126,6 +128,10 @@ def _full(trace: Trace, quantity: str, model: Structure,
     return data, sigma
 
 
+def _every_dof_has(trace: Trace, quantity: str, model: Structure) -> bool:
+    return {c.dof for c in trace.select(quantity)} >= set(model.dofs)
+
+
 def trace_motion(trace: Trace, model: Structure, samples: int | None, interval: float,
                  integration: str = "auto", estimated: list[str] | None = None) -> tuple[Motion, str]:
     """The motion of one trace at its sample times (``samples`` None: every
@@ -137,10 +143,13 @@ def trace_motion(trace: Trace, model: Structure, samples: int | None, interval: 
                                   field="integration")
     acc = _full(trace, "acceleration", model, estimated)
     if acc is None:
+        response_channels(trace, model)  # raises when a DOF has no response channel at all
         have = {c.dof for c in trace.select("acceleration")}
         missing = [f"acceleration_{n}_{d}" for n, d in model.dofs if (n, d) not in have]
-        raise IdentificationError(f"{trace.path.name}: least squares needs the acceleration of every DOF; "
-                                  f"missing channel(s) {', '.join(missing)}", field="channels")
+        raise IdentificationError(f"{trace.path.name}: least squares needs the acceleration of every DOF "
+                                  "unless it runs bias-compensated over every sample with integration 'auto'; "
+                                  f"missing channel(s) {', '.join(missing)}; present: "
+                                  f"{', '.join(sorted(trace.channels))}", field="channels")
     forces = trace.require_forces()
     fcols = _dof_columns(trace, forces, model)
     force, fsigma = np.zeros_like(acc[0]), np.zeros_like(acc[0])
@@ -180,9 +189,20 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         raise IdentificationError(f"unknown weighting {weighting!r}; known: {', '.join(WEIGHTINGS)}",
                                   field="weighting")
     estimated: list[str] = []
-    parts = [trace_motion(t, model, samples, interval, integration, estimated) for t in traces]
-    motion = Motion.stack([m for m, _ in parts])
-    est = (solve if estimator == "ols" else solve_compensated)(model, motion, weighting, rcond)
+    if not all(_every_dof_has(t, "acceleration", model) for t in traces) and (
+            estimator == "bias-compensated" and samples is None and integration == "auto"):
+        records, prefilter = prefiltered_run(traces, model, None, lambda t, c: _sigma(t, c, estimated))
+        est = solve_colored(model, records, weighting, rcond)
+        motion = Motion.stack([r.motion for r in records])
+        how, extra = ["prefiltered"], {"prefilter": prefilter}
+    else:
+        parts = [trace_motion(t, model, samples, interval, integration, estimated) for t in traces]
+        motion = Motion.stack([m for m, _ in parts])
+        est = (solve if estimator == "ols" else solve_compensated)(model, motion, weighting, rcond)
+        how = sorted({h for _, h in parts})
+        extra = ({"std_errors": est.details.get("std_errors", "") + "; too small here: integrated displacements "
+                  "and velocities carry errors correlated in time"} if any(h != "measured" for h in how)
+                 and np.any(motion.sigma["acceleration"] > 0) else {})
     mask = model.kind_mask()
     chosen = [p for p, u in zip(model.parameters, mask) if u]
     p = model.values.copy()
@@ -202,10 +222,7 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         omega=omega,
         details=times | est.details | {
             "n_equations": est.n_equations, "condition": est.condition, "residual_rms": est.residual_rms,
-            "motion": sorted({how for _, how in parts}),
-            **({"std_errors": est.details.get("std_errors", "") + "; too small here: integrated displacements "
-                "and velocities carry errors correlated in time"} if any(how != "measured" for _, how in parts)
-               and np.any(motion.sigma["acceleration"] > 0) else {}),
+            "motion": how, **extra,
             "noise": ("estimated from the data (second differences) for " + ", ".join(estimated[:8])
                       + (f" and {len(estimated) - 8} more" if len(estimated) > 8 else "")
                       if estimated else "declared by the traces")})

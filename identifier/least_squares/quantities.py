@@ -1,0 +1,115 @@
+"""Least squares from whatever response quantity each DOF has: the prefiltered records.
+
+Per DOF the lowest measured level is used (displacement before velocity
+before acceleration: fewer slots then need the filter's zeros at s = 0);
+the forces are summed per DOF. Every record becomes a
+:class:`identifier.least_squares.colored.Record`: its slots ``a``, ``v``,
+``u``, ``f`` filtered as in :mod:`identifier.least_squares.prefilter`, and
+its noise sources (each measured channel's white noise, declared or
+estimated, and the slot filters it passes).
+
+The filter's corner ``lam`` (rad/s), when not given, is :data:`BAND_FACTOR`
+times the band of the run's records (:func:`prefilter.band`, the median
+over records).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from structbench.models import ModelError, Structure
+
+from ..errors import IdentificationError
+from ..io.traces import Channel, Trace
+from .colored import Record, Source
+from .prefilter import LEVELS, SLOTS, Design, band
+
+BAND_FACTOR = 2.0
+QUANTITIES = ("displacement", "velocity", "acceleration")
+
+
+def _dof(trace: Trace, c: Channel, model: Structure) -> int:
+    try:
+        return model.dof_index(c.node, c.direction)
+    except ModelError:
+        raise IdentificationError(f"{trace.path.name}: channel {c.name} is at ({c.node}, {c.direction!r}), "
+                                  f"which is not a free DOF of model {model.name}: the model's DOF do not "
+                                  "match the traces", field="model") from None
+
+
+def response_channels(trace: Trace, model: Structure) -> list[Channel]:
+    """One response channel per model DOF (n,), the lowest level measured there;
+    raises naming the first DOF with none and the channels present."""
+    best: dict[int, Channel] = {}
+    for q in QUANTITIES[::-1]:
+        for c in trace.select(q):
+            best[_dof(trace, c, model)] = c
+    missing = [d for j, d in enumerate(model.dofs) if j not in best]
+    if missing:
+        present = ", ".join(sorted(trace.channels)) or "none"
+        raise IdentificationError(
+            f"{trace.path.name}: least squares needs one of displacement/velocity/acceleration on every DOF "
+            f"of the model; DOF {missing[0]} has none"
+            + (f" (nor {len(missing) - 1} more: {', '.join(map(str, missing[1:6]))}"
+               f"{', ...' if len(missing) > 6 else ''})" if len(missing) > 1 else "")
+            + f"; present: {present}; any of "
+            + ", ".join(f"{q}_{missing[0][0]}_{missing[0][1]}" for q in QUANTITIES) + " would do",
+            field="channels")
+    return [best[j] for j in range(model.n_dof)]
+
+
+def record_band(trace: Trace, model: Structure) -> float:
+    """The band (rad/s) of one trace's chosen response channels."""
+    chans = response_channels(trace, model)
+    data = np.column_stack([c.data for c in chans])
+    return band(data, np.array([LEVELS[c.quantity] for c in chans]), trace.dt)
+
+
+def prefiltered(trace: Trace, model: Structure, lam: float,
+                sigma_of: Callable[[Trace, Channel], np.ndarray]) -> tuple[Record, Design]:
+    """The :class:`Record` of one trace through the prefilter at ``lam`` rad/s;
+    ``sigma_of(trace, channel)`` gives a channel's noise (n_t,)."""
+    from . import Motion
+
+    chans = response_channels(trace, model)
+    n, m = model.n_dof, trace.time.size
+    levels = np.array([LEVELS[c.quantity] for c in chans])
+    design = Design.for_levels(levels, lam)
+    slots = np.zeros((4, m, n))
+    sources = []
+    for ell in np.unique(levels):
+        dofs = np.flatnonzero(levels == ell)
+        data = np.column_stack([chans[j].data for j in dofs])
+        sigma = np.column_stack([sigma_of(trace, chans[j]) for j in dofs])
+        filters = tuple(design.slot(2 - b, int(ell), trace.dt) for b in range(3))
+        for b, f in enumerate(filters):
+            slots[b][:, dofs] = f(data)
+        sources.append(Source(dofs, sigma, (0, 1, 2), filters))
+    forces = trace.require_forces()
+    fcols = np.array([_dof(trace, c, model) for c in forces])
+    force, fsigma = np.zeros((m, n)), np.zeros((m, n))
+    for c, j in zip(forces, fcols):
+        force[:, j] += c.data
+        fsigma[:, j] = np.hypot(fsigma[:, j], sigma_of(trace, c))
+    fdofs = np.unique(fcols)
+    ffilter = design.force(trace.dt, held=bool(np.isclose(trace.step, trace.dt)))
+    slots[3][:, fdofs] = ffilter(force[:, fdofs])
+    sources.append(Source(fdofs, fsigma[:, fdofs], (3,), (ffilter,)))
+    motion = Motion(trace.time, slots[2], slots[1], slots[0], slots[3], {})
+    return Record(motion, tuple(sources)), design
+
+
+def prefiltered_run(traces: Sequence[Trace], model: Structure, lam: float | None,
+                    sigma_of: Callable[[Trace, Channel], np.ndarray]) -> tuple[list[Record], dict]:
+    """Every trace of a run through one prefilter; ``lam`` None: from the band.
+    Returns the records and what was done (for ``details``)."""
+    if lam is None:
+        lam = BAND_FACTOR * float(np.median([record_band(t, model) for t in traces]))
+    parts = [prefiltered(t, model, lam, sigma_of) for t in traces]
+    design = parts[0][1]
+    used = sorted({c.quantity for t in traces for c in response_channels(t, model)},
+                  key=QUANTITIES.index)
+    info = {"lambda": design.lam, "zeros_at_dc": design.e, "order": design.r, "quantities": used,
+            "slots": list(SLOTS)}
+    return [r for r, _ in parts], info
