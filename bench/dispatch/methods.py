@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any
 
-from structbench.identifier import least_squares, modal, perturbation, rayleigh
+from structbench.identifier import least_squares, modal, perturbation, rayleigh, updating
 from structbench.identifier.modal import close_pairs
 from structbench.identifier.errors import IdentificationError
 from structbench.identifier.io.results import Identification
@@ -76,6 +76,9 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
            {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY},
            model="optional"),
+    Method("updating", updating.identify, dict(updating.DEFAULTS),
+           "finite-element model updating from identified modes (a modal results or modal-data file, "
+           "--option modal=FILE) starting from the model given as the prior"),
 )}
 
 

@@ -45,8 +45,11 @@ Starts: the prior, plus ``starts - 1`` draws ``alpha ~ N(0, scatter^2)``
 clipped to the bounds (``numpy.random.default_rng(seed)``); the start of
 least misfit wins (``details.starts``: how many agree with it). Each start is
 solved with a tiny weight ``mu_floor = 1e-12 s_1^2`` (``s_1``: the largest
-singular value of the weighted sensitivity ``J`` at the prior) so that exactly
-undetermined directions stay at the prior.
+singular value of the weighted sensitivity ``J`` at the prior); where ``J``
+has undetermined directions at that solution, Gauss-Newton steps
+``alpha <- alpha - J^+ r - (I - J^+ J) alpha`` then take it to the solution
+with no component along them (the prior's values there), which the tiny
+weight alone approaches too slowly.
 
 Regularisation weight ``mu`` (Tikhonov toward the prior, ``L = I`` on the
 relative changes), chosen from the data on the linearisation about that
@@ -128,7 +131,7 @@ from . import data as modal_data
 from .data import ModalData
 from .residuals import Residuals
 from .sensitivity import AffineModel
-from .solve import FLOOR, choose_weight, errors, fit, identifiability
+from .solve import FLOOR, choose_weight, errors, fit, identifiability, min_norm
 
 __all__ = ["ModalData", "identify", "update", "DEFAULTS", "REGULARISATION"]
 
@@ -233,6 +236,11 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     n_eff = res.n_res - res.n_scales
     ev = res(best.alpha)
     rank = identifiability(ev.J, labels, rank_tol)["rank"]
+    if rank < sel.size:
+        polished = min_norm(res, best.alpha, rank_tol, lower, upper)
+        if np.sum(res(polished).r ** 2) <= max(2 * np.sum(ev.r**2), 1e-20):
+            best.alpha = polished
+            ev = res(best.alpha)
     mu, rule, why = choose_weight(ev.J, ev.r, best.alpha, n_eff, rank, known, floor,
                                   str(regularisation) if isinstance(regularisation, str) else regularisation)
     final = best if mu <= floor * (1 + 1e-9) else fit(res, best.alpha, mu, lower, upper, max_nfev, tol)

@@ -120,18 +120,20 @@ class AffineModel:
         """Shift-invert subspace iteration from the last modes (they change
         little between evaluations), with Rayleigh-Ritz on the block of
         ``count`` plus ``max(GUARD, count / 2)`` vectors; None when the modes
-        do not converge (``1 - |x_old^T M x_new|`` below 1e-12 for the lowest
-        ``precise``, 1e-8 for the rest of ``count``; a residual norm
+        do not converge (the step ``|x_new - x_old|_M`` below 1e-10 for the
+        lowest ``precise``, 1e-6 for the rest of ``count``; a residual norm
         ``|K x - lam M x|`` is no test for the lowest modes of a stiff model,
         whose ``K x`` cancels) in :data:`SUBSPACE_ITERATIONS` steps."""
         lu = sla.splu(sp.csc_matrix(K - shift * M))
         X = self._basis
-        tol = np.where(np.arange(count) < precise, 1e-12, 1e-8)
+        tol = np.where(np.arange(count) < precise, 1e-10, 1e-6)
         for _ in range(SUBSPACE_ITERATIONS):
             Y = lu.solve(np.asarray(M @ X))
             lam, V = la.eigh(Y.T @ (K @ Y), Y.T @ (M @ Y), check_finite=False)
             new = Y @ V
-            change = 1.0 - np.abs(np.sum(X[:, :count] * (M @ new[:, :count]), axis=0))
+            sign = np.sign(np.sum(X[:, :count] * (M @ new[:, :count]), axis=0))
+            d = new[:, :count] - X[:, :count] * sign
+            change = np.sqrt(np.abs(np.sum(d * (M @ d), axis=0)))
             X = new
             if np.all(change < tol):
                 self._basis = X

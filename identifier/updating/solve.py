@@ -48,6 +48,24 @@ def fit(res: Residuals, x0: np.ndarray, mu: float, lower: np.ndarray, upper: np.
     return Fit(out.x, float(out.cost), int(out.nfev), int(out.status), str(out.message))
 
 
+def min_norm(res: Residuals, alpha: np.ndarray, rank_tol: float, lower: np.ndarray, upper: np.ndarray,
+             iterations: int = 30) -> np.ndarray:
+    """Gauss-Newton steps to the solution nearest the prior where the data
+    leave directions undetermined: ``alpha <- alpha - J^+ r - (I - J^+ J) alpha``
+    (``J^+`` by the SVD truncated at ``rank_tol``), whose fixed points fit
+    the data and have no component in the null space of ``J``; a tiny
+    Tikhonov weight alone moves along those flat directions too slowly."""
+    for _ in range(iterations):
+        ev = res(alpha)
+        U, s, Vt = np.linalg.svd(ev.J, full_matrices=ev.J.shape[0] < ev.J.shape[1])
+        rank = int(np.sum(s > rank_tol * s[0])) if s.size and s[0] > 0 else 0
+        step = -Vt[:rank].T @ ((U[:, :rank].T @ ev.r) / s[:rank]) - Vt[rank:].T @ (Vt[rank:] @ alpha)
+        alpha = np.clip(alpha + step, lower, upper)
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    return alpha
+
+
 def _svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Singular values (q,) (zeros appended when J has fewer rows than
     columns) and every right singular vector ``Vt`` (q, q) of ``J`` (n, q)."""
