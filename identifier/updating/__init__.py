@@ -114,6 +114,11 @@ when no modal data are given, a measured DOF is not a free DOF of the model,
 the model is not a finite-element :class:`~structbench.models.Structure`,
 or no parameter of the chosen kinds exists. An undetermined problem does not
 fail: it is reported.
+
+Modules: :mod:`.data` (modal data in), :mod:`.sensitivity` (modes and
+their derivatives), :mod:`.residuals`, :mod:`.solve` (least squares,
+weight, identifiability, errors). Imports only :mod:`structbench.models`,
+scipy and numpy: never the harness, and never the truth.
 """
 from __future__ import annotations
 
@@ -136,6 +141,7 @@ from .solve import FLOOR, choose_weight, errors, fit, identifiability, min_norm
 __all__ = ["ModalData", "identify", "update", "DEFAULTS", "REGULARISATION"]
 
 REGULARISATION = ("auto", "discrepancy", "gcv", "none")
+SEARCH_TOL = 1e-6  # tolerance of the searches from the starts; the polish then uses ``tol``
 DEFAULTS: dict[str, Any] = {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3,
                             "seed": 0, "regularisation": "auto", "rank_tol": 1e-6, "shape_std": None,
                             "modes": None, "parameters": None, "max_nfev": 200, "tol": 1e-10}
@@ -213,6 +219,15 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     labels = [model.parameters[j].label for j in sel]
     affine = AffineModel(model, sel, _sensors(model, measured))
     res = Residuals(affine, measured)
+    if isinstance(regularisation, str) and regularisation not in REGULARISATION:
+        raise IdentificationError(f"regularisation must be one of {', '.join(REGULARISATION)} or a number >= 0, "
+                                  f"got {regularisation!r}", field="regularisation")
+    if not isinstance(regularisation, str) and not float(regularisation) >= 0:
+        raise IdentificationError(f"regularisation weight must be >= 0, got {regularisation}", field="regularisation")
+    if int(starts) < 1 or not float(scatter) >= 0:
+        raise IdentificationError(f"starts must be >= 1 and scatter >= 0, got {starts} and {scatter}", field="starts")
+    if len(bounds) != 2:
+        raise IdentificationError(f"bounds must be [lower, upper], got {bounds}", field="bounds")
     lo, hi = float(bounds[0]), float(bounds[1])
     if not -1.0 <= lo < 0.0 < hi:
         raise IdentificationError(f"bounds must satisfy -1 <= lower < 0 < upper, got {list(bounds)}", field="bounds")
@@ -228,7 +243,7 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
                                          for _ in range(max(int(starts), 1) - 1)]
     search = Residuals(affine, measured, "entry")
     search.fix_pairs(prior.pairs)
-    fits = [fit(search, x, floor, lower, upper, max_nfev, tol) for x in points]
+    fits = [fit(search, x, floor, lower, upper, max_nfev, max(tol, SEARCH_TOL)) for x in points]
     best = min(fits, key=lambda f: f.cost)
     agree = sum(np.max(np.abs(f.alpha - best.alpha)) < 1e-3 for f in fits)
     best = fit(res, best.alpha, floor, lower, upper, max_nfev, tol)

@@ -161,11 +161,11 @@ class AffineModel:
             A[k, k] = 1.0
             v = la.solve(A, f, check_finite=False)
         else:
-            keep = np.ones(self.n)
-            keep[k] = 0.0
-            D = sp.diags(keep)
-            A = D @ (K - lam * M) @ D + sp.csc_matrix(([1.0], ([k], [k])), shape=(self.n, self.n))
-            v = sla.splu(sp.csc_matrix(A)).solve(f)
+            A = sp.csc_matrix(K - lam * M)
+            cut = np.repeat(np.arange(self.n), np.diff(A.indptr))  # column of every stored entry
+            A.data[(cut == k) | (A.indices == k)] = 0.0
+            A.data[(cut == k) & (A.indices == k)] = 1.0               # the diagonal entry (K's is stored)
+            v = sla.splu(A).solve(f)
         mpart = np.where(self.is_mass, phi @ G, 0.0)
         c = -(Mphi @ v) - 0.5 * mpart
         dphi = v[self.sensors] + np.outer(phi[self.sensors], c)
