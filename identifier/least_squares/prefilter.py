@@ -107,11 +107,13 @@ class SlotFilter:
         from scipy.signal import lfilter
 
         late = 0
-        for i in range(self.r):
-            held = self.held and i == 0
-            low = self._stage(x, held)
-            if i < self.d:  # lam (1 - P) x, the identity smoothed like the stage (S), one sample late
-                same = self._delay(x, 1) if held else lfilter(SMOOTH, [1.0], x, axis=-1)
+        # a held signal's first stage is the exact low-pass; the later ones see a continuous signal
+        kinds = ((["low"] if self.held else []) + ["high"] * self.d
+                 + ["low"] * (self.r - self.d - (1 if self.held else 0)))
+        for i, kind in enumerate(kinds):
+            low = self._stage(x, self.held and i == 0)
+            if kind == "high":  # lam (1 - P) x, the identity smoothed like the stage (S), one sample late
+                same = lfilter(SMOOTH, [1.0], x, axis=-1)
                 x, late = self.lam * (same - self._delay(low, 1)), late + 1
             else:
                 x = low
