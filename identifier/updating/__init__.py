@@ -11,9 +11,10 @@ Residuals (n,) (:mod:`.residuals`), each divided by its stated standard error:
 - eigenvalues: ``(lambda_model - lambda_meas) / lambda_meas``, weight
   ``lambda_meas / std(lambda_meas)`` (``std(lambda) = 2 omega std(omega)``);
 - shapes: the model shape at the measured DOF scaled to the measured one
-  (by weighted least squares; in the search, at the measured shape's largest
-  entry), minus the measured shape, per entry divided by its standard error. Eigenvector differences rather than MAC
-  values: ``1 - MAC`` is flat far from the answer and a poor guide.
+  (by weighted least squares; in the search, at the measured shape's
+  largest entry), minus the measured shape, per entry divided by its
+  standard error. Eigenvector differences rather than MAC values:
+  ``1 - MAC`` is flat far from the answer and a poor guide.
 
 Where no standard errors are stated (shapes of a ``modal`` results file
 have none; a modal-data file may omit them) the weights are 1 and
@@ -27,7 +28,8 @@ Far from the answer MAC values at a few sensors are no guide, so the
 search from each start keeps these mode numbers (the ``n_i``-th lowest model
 mode, whatever its shape) and uses the reference-entry shape scaling of
 :mod:`.residuals`, whose misfit grows without bound where the MAC-like one
-is flat. From the best start a second stage polishes with the least-squares
+is flat; each search stops at a relative tolerance of 1e-6. From the
+best start a second stage polishes (to ``tol``) with the least-squares
 shape scaling and pairs by MAC at every evaluation, following modes that
 switch order between iterations (``details.pairs``: the model mode of each
 measured one at the answer, 1-based; ``details.mode_switches``: evaluations
@@ -38,8 +40,10 @@ Solution: ``min |r(alpha)|^2 + mu |alpha|^2`` subject to ``lower <= alpha <= upp
 with the analytic Jacobian: ``dlambda/dalpha = phi^T (dK - lambda dM) phi``
 (mass-normalised ``phi``) and eigenvector derivatives by Nelson's method
 (:mod:`.sensitivity`; exact, needs no other mode, so no truncation and no
-residual-flexibility correction). Dense LAPACK up to 400 DOF, above that
-sparse matrices, shift-invert Lanczos (``eigsh``) and a sparse LU per mode.
+residual-flexibility correction). Dense LAPACK up to 400 DOF; above that
+sparse matrices, shift-invert Lanczos (``eigsh``) once, then shift-invert
+subspace iteration warm-started from the last evaluation's modes, and a
+sparse LU per mode for Nelson's equations.
 
 Starts: the prior, plus ``starts - 1`` draws ``alpha ~ N(0, scatter^2)``
 clipped to the bounds (``numpy.random.default_rng(seed)``); the start of
@@ -86,9 +90,8 @@ linearised at the answer, ``H = J^T J + mu I``, times ``p0_j`` for ``alpha_j``:
   ``q``). Adding ``mu I`` (Tikhonov read as a Gaussian prior, the posterior
   covariance) widens the intervals of the directions the regulariser pulls
   toward the prior by about the bias it causes there, which the frequentist
-  ``H^-1 J^T J H^-1`` ignores (its 95 % intervals held the truth in under
-  90 % of a noisy SMU-frame Monte Carlo; ``benchmarks/updating_smu.py``
-  measures this form). The misfit is tested against its chi-squared
+  ``H^-1 J^T J H^-1`` ignores (``benchmarks/updating_smu.py`` measures the
+  coverage of these intervals). The misfit is tested against its chi-squared
   distribution and, above its 99 % quantile (the model cannot fit the data
   within their errors: a wrong model), the covariance is scaled by
   ``misfit / dof`` (``details.std_errors`` says so);
@@ -105,8 +108,8 @@ them and the regularised value is the prior's.
 Assumptions: real normal modes of an undamped model (damping parameters are
 never updated; their kind is dropped from ``kinds``); measured modes are
 simple (a repeated eigenvalue has no eigenvector derivative: Nelson's
-equations are singular) and among the model's lowest ``2 k`` (at least
-``k + 4``); sensors measure DOF of the model (``dofs`` of the data, or the
+equations are singular) and among the model's lowest ``k + max(k / 2, 4)``;
+sensors measure DOF of the model (``dofs`` of the data, or the
 sensors of the results file, by (node, direction)).
 
 Fails (:class:`~structbench.identifier.IdentificationError` naming the item)
