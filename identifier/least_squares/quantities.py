@@ -6,11 +6,16 @@ the forces are summed per DOF. Every record becomes a
 :class:`identifier.least_squares.colored.Record`: its slots ``a``, ``v``,
 ``u``, ``f`` filtered as in :mod:`identifier.least_squares.prefilter`, and
 its noise sources (each measured channel's white noise, declared or
-estimated, and the slot filters it passes).
+estimated, and the slot filters it passes). An acceleration jumps with
+every step of the held force, which the first-order hold of the filter
+stages does not represent: DOF measured by acceleration alone in a mix
+carry an ``O(dt)`` discretisation error (exact zero-order-hold handling of
+accelerations needs the force's acceleration per unit force, as
+:mod:`identifier.least_squares.integrate` estimates it when every DOF has one).
 
 The filter's corner ``lam`` (rad/s), when not given, is :data:`BAND_FACTOR`
 times the band of the run's records (:func:`prefilter.band`, the median
-over records).
+over records); beyond ``lam dt =`` :data:`MAX_LAM_DT` the records are refused.
 """
 from __future__ import annotations
 
@@ -26,6 +31,7 @@ from .colored import Record, Source
 from .prefilter import LEVELS, SLOTS, Design, band
 
 BAND_FACTOR = 2.0
+MAX_LAM_DT = 0.5  # corner (rad/s) x dt beyond which the discretisation error is not small
 QUANTITIES = ("displacement", "velocity", "acceleration")
 
 
@@ -106,6 +112,12 @@ def prefiltered_run(traces: Sequence[Trace], model: Structure, lam: float | None
     Returns the records and what was done (for ``details``)."""
     if lam is None:
         lam = BAND_FACTOR * float(np.median([record_band(t, model) for t in traces]))
+    worst = max(lam * t.dt for t in traces)
+    if worst > MAX_LAM_DT:
+        raise IdentificationError(
+            f"the records' response band needs a prefilter corner of {lam:.4g} rad/s, lam dt = {worst:.3g} > "
+            f"{MAX_LAM_DT}: too close to the Nyquist frequency for the prefiltered equations; sample faster "
+            "or measure the acceleration of every DOF", field="channels")
     parts = [prefiltered(t, model, lam, sigma_of) for t in traces]
     design = parts[0][1]
     used = sorted({c.quantity for t in traces for c in response_channels(t, model)},
