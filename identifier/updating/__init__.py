@@ -56,21 +56,30 @@ with no component along them (the prior's values there), which the tiny
 weight alone approaches too slowly.
 
 Regularisation weight ``mu`` (Tikhonov toward the prior, ``L = I`` on the
-relative changes), chosen from the data on the linearisation about that
-solution (``chi2(mu) = chi2_0 + sum_k s_k^2 (mu c_k / (s_k^2 + mu))^2``,
-``c = V^T alpha``):
+relative changes), chosen from the data on the linear model about that
+solution, ``r(a) ~ J a - b`` (SVD ``J = U S V^T``, ``beta = U^T b``:
+``a(mu) = V diag(s / (s^2 + mu)) beta``):
 
-- every datum has a stated standard error (the noise level is known):
-  the discrepancy principle, ``chi2(mu) = n_eff - rank`` with ``n_eff`` the
-  data less one profiled scale per shape: the expected misfit of the
-  unregularised fit. The textbook target ``n_eff`` would pull a well-posed,
-  over-determined problem toward the prior by far more than its noise; a
-  misfit already above the target keeps the floor;
-- otherwise: generalised cross-validation, ``min chi2(mu) / (n_eff - tr A(mu))^2``,
-  ``tr A = sum s_k^2 / (s_k^2 + mu)``, which needs no noise level;
-- with no residual degrees of freedom (``n_eff <= rank``) neither applies: the
-  floor only. ``regularisation`` may force ``discrepancy``, ``gcv``, ``none``
-  or a number. The chosen weight is applied in a last nonlinear solve.
+- every datum has a stated standard error (the noise level is known): the
+  discrepancy principle in the form that holds for any rank (Mead's
+  chi-squared principle): the minimum of the regularised functional,
+  ``|r(mu)|^2 + mu |a(mu)|^2``, equals its expectation ``n_eff`` (the data
+  less one profiled scale per shape) under the stated errors with Tikhonov
+  read as the Gaussian prior ``alpha ~ N(0, I / mu)``. Morozov's
+  ``|r|^2 = n_eff`` would pull a well-posed, over-determined problem toward
+  the prior by far more than its noise, and ``|r|^2 = n_eff - rank`` (the
+  unregularised fit's expected misfit) never regularises a problem whose
+  data are fitted exactly (``n_eff <= rank``), where noise then drives
+  weakly determined combinations onto the bounds; a functional already
+  above ``n_eff`` keeps the floor;
+- otherwise: generalised cross-validation, ``min |r(mu)|^2 / (n_eff - tr A(mu))^2``,
+  ``tr A = sum s_k^2 / (s_k^2 + mu)``, which needs no noise level but
+  residual degrees of freedom: with ``n_eff <= rank`` the floor only (the
+  data fitted exactly, undetermined directions at the prior; state the
+  data's errors to have weakly determined ones regularised).
+
+``regularisation`` may force ``discrepancy``, ``gcv``, ``none`` or a number.
+The chosen weight is applied in a last nonlinear solve from that solution.
 
 Identifiability (``details.identifiability``): singular values of ``J`` at
 the solution (weighted, columns in ``alpha``), the numerical rank (above

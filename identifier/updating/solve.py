@@ -74,42 +74,46 @@ def _svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([s, np.zeros(q - s.size)]), Vt
 
 
-def _chi2_curve(s: np.ndarray, c: np.ndarray, chi2_min: float):
-    """Linearised data misfit ``chi2(mu) = chi2_min + sum_k s_k^2 (mu c_k / (s_k^2 + mu))^2``
-    of the Tikhonov solution about the unregularised one (``c = V^T alpha``)."""
-    def chi2(mu: float) -> float:
-        return chi2_min + float(np.sum(s**2 * (mu * c / (s**2 + mu)) ** 2))
-    return chi2
-
-
 def choose_weight(J: np.ndarray, r: np.ndarray, alpha: np.ndarray, n_eff: int, rank: int, known: bool,
                   floor: float, rule: str) -> tuple[float, str, str]:
     """The regularisation weight ``mu``, the rule used and why.
 
-    ``rule``: ``auto`` (discrepancy principle when ``known``, else GCV),
-    ``discrepancy``, ``gcv``, ``none`` (the floor only) or a number."""
+    On the linear model about ``alpha`` (``r(a) = J a - b``, ``b = J alpha - r``,
+    exact for any ``alpha``, bounded or not): ``a(mu) = V diag(s / (s^2 + mu)) U^T b``.
+    ``rule``: ``auto`` (``chi2`` when ``known``, else ``gcv``), ``chi2``
+    (the minimum of the regularised functional ``|r|^2 + mu |a|^2`` equal to
+    ``n_eff``), ``gcv``, ``none`` (the floor only) or a number."""
     if rule not in ("auto", "discrepancy", "gcv", "none"):
         return max(float(rule), floor), "given", "the option regularisation"
     if rule == "none":
         return floor, "none", "regularisation = none: only the floor that keeps undetermined directions at the prior"
     rule = ("discrepancy" if known else "gcv") if rule == "auto" else rule
-    s, Vt = _svd(J)
-    c = Vt @ alpha
-    chi2_min = float(r @ r)
-    chi2 = _chi2_curve(s, c, chi2_min)
-    free = n_eff - rank
+    U, s, _ = np.linalg.svd(J, full_matrices=False)
+    b = J @ alpha - r
+    beta = U.T @ b
+    rest = max(float(b @ b - beta @ beta), 0.0)
     top = MU_RANGE * max(s[0] ** 2, 1e-300)
-    if free <= 0:
-        return floor, rule, (f"no residual degrees of freedom ({n_eff} data, rank {rank}): the data are fitted "
-                             "exactly and only the floor keeps undetermined directions at the prior")
+
+    def chi2(mu: float) -> float:
+        return rest + float(np.sum((mu / (s**2 + mu) * beta) ** 2))
+
+    def functional(mu: float) -> float:
+        return chi2(mu) + mu * float(np.sum((s * beta / (s**2 + mu)) ** 2))
+
     if rule == "discrepancy":
-        if chi2_min >= free:
-            return floor, rule, (f"misfit {chi2_min:.3g} already at or above its expectation {free} "
-                                 "(data minus rank): no further regularisation")
-        if chi2(top) <= free:
-            return top, rule, f"even the prior fits within the noise (misfit {chi2(top):.3g} <= {free})"
-        mu = float(np.exp(brentq(lambda t: chi2(np.exp(t)) - free, np.log(floor), np.log(top), xtol=1e-6)))
-        return mu, rule, f"misfit = data - rank = {free} (stated standard errors)"
+        if functional(floor) >= n_eff:
+            return floor, rule, (f"misfit {functional(floor):.3g} already at or above its expectation {n_eff} "
+                                 "(the data less the profiled shape scales): no further regularisation")
+        if functional(top) <= n_eff:
+            return top, rule, f"even the prior fits within the noise (misfit {functional(top):.3g} <= {n_eff})"
+        mu = float(np.exp(brentq(lambda t: functional(np.exp(t)) - n_eff, np.log(floor), np.log(top), xtol=1e-6)))
+        return mu, rule, (f"|r|^2 + mu |alpha|^2 = {n_eff} (its expectation under the stated standard errors and "
+                          "the prior N(0, I / mu))")
+    free = n_eff - rank
+    if free <= 0:
+        return floor, rule, (f"GCV needs residual degrees of freedom ({n_eff} data, rank {rank}): the floor only "
+                             "keeps undetermined directions at the prior; state standard errors for the discrepancy "
+                             "rule")
     grid = np.exp(np.linspace(np.log(floor), np.log(top), 241))
     dof = np.array([n_eff - np.sum(s**2 / (s**2 + mu)) for mu in grid])
     gcv = np.array([chi2(mu) for mu in grid]) / np.maximum(dof, 1e-300) ** 2
