@@ -53,7 +53,8 @@ def response_channels(trace: Trace, model: Structure) -> list[Channel]:
             best[_dof(trace, c, model)] = c
     missing = [d for j, d in enumerate(model.dofs) if j not in best]
     if missing:
-        present = ", ".join(sorted(trace.channels)) or "none"
+        names = [c.name for c in sorted(trace.channels.values(), key=lambda c: (c.quantity, c.node, c.direction))]
+        present = (", ".join(names[:12]) + (f" and {len(names) - 12} more" if len(names) > 12 else "")) or "none"
         raise IdentificationError(
             f"{trace.path.name}: least squares needs one of displacement/velocity/acceleration on every DOF "
             f"of the model; DOF {missing[0]} has none"
