@@ -46,23 +46,25 @@ def _dof(trace: Trace, c: Channel, model: Structure) -> int:
 
 def response_channels(trace: Trace, model: Structure) -> list[Channel]:
     """One response channel per model DOF (n,), the lowest level measured there;
-    raises naming the first DOF with none and the channels present."""
-    best: dict[int, Channel] = {}
-    for q in QUANTITIES[::-1]:
-        for c in trace.select(q):
-            best[_dof(trace, c, model)] = c
-    missing = [d for j, d in enumerate(model.dofs) if j not in best]
+    raises naming the first DOF with none and the channels present, or a
+    channel at no free DOF of the model (the model does not match)."""
+    have = {c.dof for q in QUANTITIES for c in trace.select(q)}
+    missing = [d for d in model.dofs if d not in have]
     if missing:
         names = [c.name for c in sorted(trace.channels.values(), key=lambda c: (c.quantity, c.node, c.direction))]
         present = (", ".join(names[:12]) + (f" and {len(names) - 12} more" if len(names) > 12 else "")) or "none"
+        wanted = ", ".join(f"acceleration_{n}_{d}" for n, d in missing[:6]) + (", ..." if len(missing) > 6 else "")
         raise IdentificationError(
             f"{trace.path.name}: least squares needs one of displacement/velocity/acceleration on every DOF "
             f"of the model; DOF {missing[0]} has none"
-            + (f" (nor {len(missing) - 1} more: {', '.join(map(str, missing[1:6]))}"
-               f"{', ...' if len(missing) > 6 else ''})" if len(missing) > 1 else "")
-            + f"; present: {present}; any of "
-            + ", ".join(f"{q}_{missing[0][0]}_{missing[0][1]}" for q in QUANTITIES) + " would do",
+            + (f" (nor {len(missing) - 1} more)" if len(missing) > 1 else "")
+            + f"; missing channel(s) {wanted} (or the displacement or velocity of the same DOF); "
+            f"present: {present}",
             field="channels")
+    best: dict[int, Channel] = {}
+    for q in QUANTITIES[::-1]:
+        for c in trace.select(q):
+            best[_dof(trace, c, model)] = c  # raises for a channel at no free DOF of the model
     return [best[j] for j in range(model.n_dof)]
 
 
