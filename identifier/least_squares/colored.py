@@ -58,6 +58,7 @@ from . import whitened
 
 REWEIGHTINGS = 3
 BATCH = 8  # unknowns per pass of the standard errors
+BATCH_VALUES = 4_000_000  # floats of the per-unknown equation matrices in one pass
 
 
 @dataclass(frozen=True)
@@ -101,9 +102,10 @@ def noise_gram(records: list[Record], n: int) -> sp.csr_matrix:
 def _noise_part(lay: Layout, V: sp.csr_matrix, omega: np.ndarray | None) -> sp.csr_matrix:
     """``D`` for the weighting ``omega`` (n, n) or, None, unweighted."""
     Wc = lay.W.tocsc()
-    same_row = lay.pair_row[:, None] == lay.pair_row[None, :]
-    coupling = same_row if omega is None else omega[np.ix_(lay.pair_row, lay.pair_row)]
-    noisy = sp.csr_matrix((Wc.T @ V @ Wc).multiply(coupling))
+    noisy = sp.coo_matrix(Wc.T @ V @ Wc)  # (n_pairs, n_pairs), sparse: pairs sharing a noisy DOF
+    ri, rj = lay.pair_row[noisy.row], lay.pair_row[noisy.col]
+    coupling = (ri == rj).astype(float) if omega is None else omega[ri, rj]
+    noisy = sp.csr_matrix((noisy.data * coupling, (noisy.row, noisy.col)), shape=noisy.shape)
     return sp.csr_matrix(lay.P.T @ noisy @ lay.P)
 
 
@@ -134,15 +136,16 @@ class _System:
 def _std_errors(lay: Layout, records: list[Record], theta: np.ndarray, omega: np.ndarray | None,
                 mask: np.ndarray, solver: _Solver) -> np.ndarray:
     """First-order standard errors (n_u,) for coloured noise (module docstring),
-    :data:`BATCH` unknowns at a time."""
+    :data:`BATCH` unknowns at a time (fewer on large models)."""
     n = lay.n_dof
     u = np.flatnonzero(mask)
     mt = whitened.equation_matrix(lay, theta)
     om = np.eye(n) if omega is None else omega
     rho = solver(np.eye(u.size))  # H^-1 (symmetric: its rows are its columns)
     var = np.zeros(u.size)
-    for start in range(0, u.size, BATCH):
-        batch = np.arange(start, min(u.size, start + BATCH))
+    step = max(1, min(BATCH, BATCH_VALUES // (4 * n * n)))
+    for start in range(0, u.size, step):
+        batch = np.arange(start, min(u.size, start + step))
         coef = np.zeros((theta.size, batch.size))
         coef[u] = rho[:, batch]
         mts = np.stack([whitened.equation_matrix(lay, c) for c in coef.T])  # (k, 4 n, n)
