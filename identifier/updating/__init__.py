@@ -49,14 +49,14 @@ Starts: the prior, plus ``starts - 1`` draws ``alpha ~ N(0, scatter^2)``
 clipped to the bounds (``numpy.random.default_rng(seed)``); the start of
 least misfit wins (``details.starts``: how many agree with it). Each start is
 solved with a tiny weight ``mu_floor = 1e-12 s_1^2`` (``s_1``: the largest
-singular value of the weighted sensitivity ``J`` at the prior); where ``J``
-has undetermined directions at that solution, Gauss-Newton steps
-``alpha <- alpha - J^+ r - (I - J^+ J) alpha`` then take it to the solution
-with no component along them (the prior's values there), which the tiny
-weight alone approaches too slowly.
+singular value of the weighted sensitivity ``J`` at the prior). When the
+answer keeps that floor weight and ``J`` has undetermined directions there,
+Gauss-Newton steps ``alpha <- alpha - J^+ r - (I - J^+ J) alpha`` take it
+to the solution with no component along them (the prior's values there),
+which the tiny weight alone approaches too slowly.
 
 Regularisation weight ``mu`` (Tikhonov toward the prior, ``L = I`` on the
-relative changes), chosen from the data on the linear model about that
+relative changes), chosen from the data on the linear model about a
 solution, ``r(a) ~ J a - b`` (SVD ``J = U S V^T``, ``beta = U^T b``:
 ``a(mu) = V diag(s / (s^2 + mu)) beta``):
 
@@ -79,7 +79,9 @@ solution, ``r(a) ~ J a - b`` (SVD ``J = U S V^T``, ``beta = U^T b``:
   data's errors to have weakly determined ones regularised).
 
 ``regularisation`` may force ``discrepancy``, ``gcv``, ``none`` or a number.
-The chosen weight is applied in a last nonlinear solve from that solution.
+The weight is chosen at the best start's solution and applied in the
+polish; chosen again at the answer, a weight over a factor 2 different
+is applied in one more solve.
 
 Identifiability (``details.identifiability``): singular values of ``J`` at
 the solution (weighted, columns in ``alpha``), the numerical rank (above
@@ -258,19 +260,25 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     fits = [fit(search, x, floor, lower, upper, max_nfev, max(tol, SEARCH_TOL)) for x in points]
     best = min(fits, key=lambda f: f.cost)
     agree = sum(np.max(np.abs(f.alpha - best.alpha)) < 1e-3 for f in fits)
-    best = fit(res, best.alpha, floor, lower, upper, max_nfev, tol)
     known = all(res.stated.values())
     n_eff = res.n_res - res.n_scales
-    ev = res(best.alpha)
-    rank = identifiability(ev.J, labels, rank_tol)["rank"]
-    if rank < sel.size:
-        polished = min_norm(res, best.alpha, rank_tol, lower, upper)
-        if np.sum(res(polished).r ** 2) <= max(2 * np.sum(ev.r**2), 1e-20):
-            best.alpha = polished
-            ev = res(best.alpha)
-    mu, rule, why = choose_weight(ev.J, ev.r, best.alpha, n_eff, rank, known, floor,
-                                  str(regularisation) if isinstance(regularisation, str) else regularisation)
-    final = best if mu <= floor * (1 + 1e-9) else fit(res, best.alpha, mu, lower, upper, max_nfev, tol)
+    rule_given = str(regularisation) if isinstance(regularisation, str) else regularisation
+
+    def weight(alpha: np.ndarray) -> tuple[float, str, str, int]:
+        here = res(alpha)
+        rank = identifiability(here.J, labels, rank_tol)["rank"]
+        return (*choose_weight(here.J, here.r, alpha, n_eff, rank, known, floor, rule_given), rank)
+
+    mu, rule, why, rank = weight(best.alpha)
+    final = fit(res, best.alpha, mu, lower, upper, max_nfev, tol)
+    again = weight(final.alpha)  # the weight from the linear model at the answer itself
+    if not 0.5 <= again[0] / mu <= 2.0:
+        mu, rule, why, rank = again
+        final = fit(res, final.alpha, mu, lower, upper, max_nfev, tol)
+    if rank < sel.size and mu <= floor * (1 + 1e-9):
+        polished = min_norm(res, final.alpha, rank_tol, lower, upper)
+        if np.sum(res(polished).r ** 2) <= max(2 * np.sum(res(final.alpha).r ** 2), 1e-20):
+            final.alpha = polished
     ev = res(final.alpha)
     report = identifiability(ev.J, labels, rank_tol)
     err = errors(res, ev, mu, known, report.pop("null_space"))
