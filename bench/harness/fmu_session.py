@@ -6,7 +6,9 @@ at ``t_k`` (so direct-feedthrough outputs such as acceleration see
 ``forces[k]``), then ``doStep(t_k, dt)`` with ``forces[k]`` held.
 
 FMI 2.0 co-simulation FMUs run through a tight loop of ctypes calls
-(``fmi2SetReal``/``fmi2GetReal``/``fmi2DoStep`` on preallocated buffers);
+(``fmi2SetReal``/``fmi2GetReal``/``fmi2DoStep`` on preallocated buffers;
+``fmi2SetReal`` only when ``forces[k]`` differs from ``forces[k - 1]``, since
+an FMU keeps its inputs until they are set again);
 FMI 3.0 co-simulation through fmpy's ``FMU3Slave``; model exchange through
 ``fmpy.simulate_fmu`` with a zero-order-hold input table. FMU logging is on
 and every message is forwarded to ``log``; a call returning discard, error or
