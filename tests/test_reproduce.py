@@ -1,10 +1,13 @@
 """The main job end to end with few repetitions: keys, numbers and report."""
 import json
+import os
 
 import pytest
 
+from structbench import api
 from structbench.cli import main
-from structbench.evaluation.reproduce import campaign_with_repetitions, CAMPAIGNS
+from structbench.evaluation.reproduce import (CAMPAIGNS, DONE, KEEP_TRACES, campaign_with_repetitions,
+                                              reproduction_campaign, run_case)
 from structbench.models.errors import UserError
 
 
@@ -84,3 +87,58 @@ def test_report_and_figures(reproduced):
 def test_repetitions_must_be_positive():
     with pytest.raises(UserError, match="--repetitions"):
         campaign_with_repetitions(CAMPAIGNS / "ch3.toml", 0)
+
+
+def test_the_default_run_leaves_no_traces(reproduced):
+    """Each case's traces are deleted once it is scored; what the report reads stays."""
+    out, _ = reproduced
+    assert not list(out.rglob("*.h5"))
+    for case in ("ch3", "ch4-case1", "ch5-damped"):
+        assert (out / case / "truth.json").is_file() and (out / case / DONE).is_file()
+        assert list((out / case / "results").glob("*.json"))
+    assert sum(p.stat().st_size for p in out.rglob("*") if p.is_file()) < 50e6
+
+
+def test_a_complete_case_is_scored_again_without_running(reproduced):
+    out, _ = reproduced
+    lines = []
+    scores = run_case("ch5-membrane", out, 3, 1, False, lines.append)
+    assert "rayleigh-joint" in scores and len(lines) == 1 and "complete from an earlier run" in lines[0]
+
+
+def test_keep_traces_keeps_them(tmp_path):
+    """The smallest case (two records) with and without its traces kept."""
+    lines = []
+    run_case("ch5-membrane", tmp_path, 3, 1, True, lines.append)
+    assert sorted(p.name for p in (tmp_path / "ch5-membrane" / "traces").glob("*.h5")) == [
+        "initial-velocity-node6.h5", "initial-velocity.h5"]
+    assert all(line.startswith("[6/7] ch5-membrane ") and " s: " in line for line in lines)
+    run_case("ch5-membrane", tmp_path, 3, 1, False, lines.append)  # complete, traces kept: not run again
+    assert "complete from an earlier run" in lines[-1]
+    (tmp_path / "ch5-membrane" / DONE).unlink()
+    run_case("ch5-membrane", tmp_path, 3, 1, False, lines.append)
+    assert not (tmp_path / "ch5-membrane" / "traces").exists()
+    assert (tmp_path / "ch5-membrane" / "results" / "rayleigh-joint.json").is_file()
+
+
+def test_the_cli_passes_keep_traces_on(reproduced, monkeypatch, capsys):
+    """``--keep-traces`` reaches the reproduction (through STRUCTBENCH_KEEP_TRACES) and nothing else."""
+    out, summary = reproduced
+    seen = []
+    monkeypatch.delenv(KEEP_TRACES, raising=False)
+    monkeypatch.setattr(api, "reproduce", lambda *args: seen.append(os.environ.get(KEEP_TRACES)) or summary)
+    assert main(["reproduce", "--out", str(out), "--keep-traces"]) == 0
+    assert main(["reproduce", "--out", str(out)]) == 0
+    assert seen == ["1", None] and KEEP_TRACES not in os.environ
+    assert "ch3-m8 normalized RMS" in capsys.readouterr().out
+
+
+def test_only_the_tests_identified_are_simulated():
+    """ch4-case1 reads its 0.5 rad/s tests alone; the damped random test keeps its campaign's 4 records."""
+    assert [(t.name, t.repetitions) for t in reproduction_campaign("ch4-case1", 20).tests] == [
+        ("exact-01", 1), ("noisy-01", 20)]
+    assert len(reproduction_campaign("ch4-case2", 20).tests) == 24
+    assert {t.name: t.repetitions for t in reproduction_campaign("ch5-damped", 20).tests} == {
+        "impulse": 20, "random": 4}
+    assert {t.name: t.repetitions for t in reproduction_campaign("ch5-damped", 3).tests} == {
+        "impulse": 3, "random": 3}

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -11,16 +12,23 @@ from structbench import api
 
 from .progress import bar, interactive
 
+KEEP_TRACES = "STRUCTBENCH_KEEP_TRACES"  # the environment variable structbench.evaluation.reproduce reads
 HELP = "run every dissertation case through FMUs, harness, traces, identifiers and scoring; print and report"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("out/reproduce"),
-                        help="output folder (default out/reproduce); a second run resumes")
+                        help="output folder (default out/reproduce); a second run resumes (complete cases are "
+                             "only scored again)")
     parser.add_argument("--repetitions", type=int, default=20,
-                        help="Monte Carlo repetitions of the noisy tests (default 20)")
-    parser.add_argument("--jobs", type=int, help="worker processes (default: one per CPU)")
+                        help="Monte Carlo repetitions of the noisy tests (default 20; the damped beam's 8 h "
+                             "ambient records: at most its campaign's 4)")
+    parser.add_argument("--jobs", type=int, help="processes (default: one per CPU): two cases at a time, each "
+                                                 "with half of them; 0 or 1: one case after the other")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.add_argument("--keep-traces", action="store_true",
+                        help="keep every case's trace files (about 0.54 GB); by default they are deleted once "
+                             "the case is identified and scored (its results, truth and the report stay)")
 
 
 def _stderr(line: str) -> None:
@@ -35,9 +43,17 @@ def run(args: argparse.Namespace) -> int:
         shown.set_description_str(line.strip()[:60])
         shown.update(1)
 
+    kept = os.environ.get(KEEP_TRACES)
+    if args.keep_traces:  # read by the reproduction (structbench.api.reproduce takes no such argument)
+        os.environ[KEEP_TRACES] = "1"
     try:
         summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr if shown is None else stage)
     finally:
+        if args.keep_traces:
+            if kept is None:
+                os.environ.pop(KEEP_TRACES, None)
+            else:
+                os.environ[KEEP_TRACES] = kept
         if shown is not None:
             shown.close()
     if args.json:

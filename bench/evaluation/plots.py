@@ -1,4 +1,7 @@
-"""Report figures (matplotlib, Agg backend, PNG files)."""
+"""Report figures (matplotlib, Agg backend, PNG files): the drawing functions,
+and :func:`case_figures`, the figures of one case's results (drawn by the
+reproduction as soon as the case is done, and redrawn only when older than
+the results they show)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,6 +11,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from structbench.identifier.io.results import read_results  # noqa: E402
+from structbench.models import load_model  # noqa: E402
+
+from .truth_checks import read_truth  # noqa: E402
+
+UNITS = {"mass": "kg/m", "stiffness": "N/m"}
 
 
 def _save(fig: plt.Figure, path: Path) -> Path:
@@ -128,3 +138,78 @@ def coverage(path: Path, title: str, rows: dict[str, dict[str, float]]) -> Path:
     ax.set_title(title)
     ax.legend(fontsize=7, loc="lower left")
     return _save(fig, path)
+
+
+# ---- the figures of one case's results ------------------------------------------
+def case_figures(out: Path, case: str) -> list[Path]:
+    """The figures of case ``case`` of the reproduction in ``out`` (none for
+    most cases): ch3 parameters (``m4``, ``m8``); the ch5 beam's shapes (the
+    Rayleigh quotient, then the modal method); the membrane's (one record,
+    then two). Each is drawn unless it is newer than what it shows."""
+    folder = out / case
+    if case == "ch3":
+        return [_drawn(out / f"ch3-parameters-{tag}.png", folder, [f"least-squares-{tag}"], _ch3_parameters, tag)
+                for tag in ("m4", "m8")]
+    if case == "ch5-beam":
+        return [_drawn(out / png, folder, [stem], _beam_shapes, stem, title) for png, stem, title in (
+            ("ch5-beam-modes.png", "rayleigh-hann",
+             "Chapter 5 beam: identified (o) vs true mode shapes (cf. Figures 5.1, 5.2)"),
+            ("ch5-beam-modes-modal.png", "modal-noisy",
+             "ch5 beam, 2 % noise: modal method (o) vs true mode shapes, modes 1-10"))]
+    if case == "ch5-membrane":
+        return [_drawn(out / f"ch5-membrane-modes-{tag}.png", folder, [f"rayleigh-{tag}"], _membrane_shapes, tag)
+                for tag in ("single", "joint")]
+    return []
+
+
+def _drawn(path: Path, folder: Path, stems: list[str], draw, *args) -> Path:
+    """``path``, drawn by ``draw(path, folder, *args)`` unless newer than the
+    results ``stems`` of ``folder`` and its truth."""
+    sources = [folder / "results" / f"{stem}.json" for stem in stems] + [folder / "truth.json"]
+    if path.is_file() and path.stat().st_mtime_ns > max(p.stat().st_mtime_ns for p in sources):
+        return path
+    return draw(path, folder, *args)
+
+
+def _by_kind(labels: list[str], values: np.ndarray) -> dict[str, np.ndarray]:
+    """Split a (..., n_par) array by the kind in the labels ``kind[element]``."""
+    kinds = [label.split("[")[0] for label in labels]
+    return {k: values[..., [i for i, kk in enumerate(kinds) if kk == k]] for k in dict.fromkeys(kinds)}
+
+
+def _ch3_parameters(path: Path, folder: Path, tag: str) -> Path:
+    _, runs = read_results(folder / "results" / f"least-squares-{tag}.json")
+    labels = runs[0].labels()
+    table = {p["label"]: p["value"] for p in read_truth(folder / "truth.json")["parameters"]}
+    truth = _by_kind(labels, np.array([table[label] for label in labels]))
+    estimates = _by_kind(labels, np.array([r.values() for r in runs]))
+    return parameter_distribution(path, f"Chapter 3, {tag}: identified vs true ({len(runs)} noise realisations)",
+                                  truth, estimates, UNITS)
+
+
+def _shapes(folder: Path, stem: str) -> tuple[np.ndarray, np.ndarray]:
+    """Identified shapes of run 0 and the true ones at the same sensors, (n_s, n_modes)."""
+    _, runs = read_results(folder / "results" / f"{stem}.json")
+    run = runs[0]
+    truth = read_truth(folder / "truth.json")
+    rows = {tuple(d): i for i, d in enumerate(truth["sensor_dofs"])}
+    pick = [rows[(int(c.split("_")[1]), c.split("_", 2)[2])] for c in run.sensors]
+    ident = np.array(run.mode_shapes).T
+    return ident, np.array(truth["mode_shapes"])[pick][:, :ident.shape[1]]
+
+
+def _beam_shapes(path: Path, folder: Path, stem: str, title: str) -> Path:
+    """Modes 1-10 of the ch5 beam identified by ``stem`` against the true ones."""
+    beam = load_model("ch5-simply-supported-beam")
+    ident, true = _shapes(folder, stem)
+    x_fine = np.linspace(0, 10, 400)
+    return beam_mode_shapes(path, title, beam.points, ident[:, :10], true[:, :10], x_fine,
+                            beam.shape_function(x_fine)[:, :10])
+
+
+def _membrane_shapes(path: Path, folder: Path, tag: str) -> Path:
+    membrane = load_model("ch5-membrane")
+    xy = np.array([membrane.nodes[n][:2] for n, _ in membrane.dofs])
+    ident, true = _shapes(folder, f"rayleigh-{tag}")
+    return membrane_mode_shapes(path, f"Chapter 5 membrane ({tag}): five lowest modes (cf. Figure 5.4)",
+                                xy, ident[:, :5], true[:, :5])

@@ -6,32 +6,23 @@ from typing import Any
 
 import numpy as np
 
-from structbench.identifier.io.results import read_results
-from structbench.models import load_model
-
 from . import beyond_modal, plots
-from .reproduce import PUBLISHED, STEPS
-from .truth_checks import read_truth
+from .reproduce import STEPS
 
-UNITS = {"mass": "kg/m", "stiffness": "N/m"}
-
-
-def _by_kind(labels: list[str], values: np.ndarray) -> dict[str, np.ndarray]:
-    """Split a (..., n_par) array by the kind in the labels ``kind[element]``."""
-    kinds = [label.split("[")[0] for label in labels]
-    return {k: values[..., [i for i, kk in enumerate(kinds) if kk == k]] for k in dict.fromkeys(kinds)}
-
-
-def ch3_figure(out: Path, tag: str) -> Path:
-    folder = out / "ch3"
-    _, runs = read_results(folder / "results" / f"least-squares-{tag}.json")
-    labels = runs[0].labels()
-    table = {p["label"]: p["value"] for p in read_truth(folder / "truth.json")["parameters"]}
-    truth = _by_kind(labels, np.array([table[label] for label in labels]))
-    estimates = _by_kind(labels, np.array([r.values() for r in runs]))
-    return plots.parameter_distribution(out / f"ch3-parameters-{tag}.png",
-                                        f"Chapter 3, {tag}: identified vs true ({len(runs)} noise realisations)",
-                                        truth, estimates, UNITS)
+# The dissertation's figures (shared/reference/dissertation-cases.md).
+PUBLISHED: dict[str, dict[str, Any]] = {
+    "ch3-m4": {"rms": 0.0284, "rms_printed": 0.056, "freq_error_pct_max": 0.6},
+    "ch3-m8": {"rms": 0.0183, "rms_printed": 0.035, "freq_error_pct_max": 0.6},
+    "ch4-case1": {"rms_initial": 0.122, "rms": 0.0, "iterations": 5},
+    "ch4-case2": {"rms_initial": 0.0293, "rms": 0.0, "iterations": 5},
+    "ch4-case1-noisy": {"rms_initial": 0.122, "note": "improves on the postulated model (plotted values lost)"},
+    "ch4-case2-noisy": {"rms_initial": 0.0293, "note": "improves on the postulated model (plotted values lost)"},
+    "ch5-beam": {"omega": [0.09834, 0.39433, 0.88821, 1.57910, 2.46734, 3.55311, 6.68212, 8.49410,
+                           10.19992, 11.46529],
+                 "freq_error_pct": [-0.4, -0.1, 0.0, 0.0, 0.0, 0.0, 38.2, 34.5, 27.6, 16.2]},
+    "ch5-membrane": {"lambda": [0.0, 1.1835, 1.1948, 2.7669, 5.8482],
+                     "lambda_error_pct": [0.0, -0.6, 0.3, 0.1, 0.1]},
+}
 
 
 def ch4_figure(out: Path, scores: dict[str, Any]) -> Path:
@@ -46,49 +37,9 @@ def ch4_figure(out: Path, scores: dict[str, Any]) -> Path:
                              "Chapter 4: normalized RMS error vs iteration (cf. Figures 4.2-4.5)", histories)
 
 
-def _shapes(folder: Path, stem: str) -> tuple[np.ndarray, np.ndarray]:
-    """Identified shapes of run 0 and the true ones at the same sensors, (n_s, n_modes)."""
-    _, runs = read_results(folder / "results" / f"{stem}.json")
-    run = runs[0]
-    truth = read_truth(folder / "truth.json")
-    rows = {tuple(d): i for i, d in enumerate(truth["sensor_dofs"])}
-    pick = [rows[(int(c.split("_")[1]), c.split("_", 2)[2])] for c in run.sensors]
-    ident = np.array(run.mode_shapes).T
-    return ident, np.array(truth["mode_shapes"])[pick][:, :ident.shape[1]]
-
-
 def _diagrams(out: Path) -> list[Path]:
     """The first stabilisation diagram of every modal results file."""
     return sorted(p for p in out.glob("*/results/modal-*-stabilisation-00.png"))
-
-
-def modal_figures(out: Path) -> list[Path]:
-    """Identified (SSI-cov) vs true beam shapes of the noisy ch5 record, modes 1-10."""
-    beam = load_model("ch5-simply-supported-beam")
-    ident, true = _shapes(out / "ch5-beam", "modal-noisy")
-    x_fine = np.linspace(0, 10, 400)
-    return [plots.beam_mode_shapes(out / "ch5-beam-modes-modal.png",
-                                   "ch5 beam, 2 % noise: modal method (o) vs true mode shapes, modes 1-10",
-                                   beam.points, ident[:, :10], true[:, :10], x_fine,
-                                   beam.shape_function(x_fine)[:, :10])]
-
-
-def ch5_figures(out: Path) -> list[Path]:
-    beam = load_model("ch5-simply-supported-beam")
-    ident, true = _shapes(out / "ch5-beam", "rayleigh-hann")
-    x_fine = np.linspace(0, 10, 400)
-    figs = [plots.beam_mode_shapes(out / "ch5-beam-modes.png",
-                                   "Chapter 5 beam: identified (o) vs true mode shapes (cf. Figures 5.1, 5.2)",
-                                   beam.points, ident[:, :10], true[:, :10], x_fine,
-                                   beam.shape_function(x_fine)[:, :10])]
-    membrane = load_model("ch5-membrane")
-    xy = np.array([membrane.nodes[n][:2] for n, _ in membrane.dofs])
-    for tag in ("single", "joint"):
-        ident, true = _shapes(out / "ch5-membrane", f"rayleigh-{tag}")
-        figs.append(plots.membrane_mode_shapes(out / f"ch5-membrane-modes-{tag}.png",
-                                               f"Chapter 5 membrane ({tag}): five lowest modes (cf. Figure 5.4)",
-                                               xy, ident[:, :5], true[:, :5]))
-    return figs
 
 
 def _row(values: list[float], fmt: str = "{:.4g}") -> str:
@@ -177,8 +128,8 @@ def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path
 
 def write_report(out: Path, summary: dict[str, Any], scores: dict[str, Any]) -> Path:
     """Write ``out/report.md`` and its figures; returns the report's path."""
-    figures = [ch3_figure(out, "m4"), ch3_figure(out, "m8"), ch4_figure(out, scores), *ch5_figures(out),
-               *modal_figures(out)]
+    ch3, beam, membrane = (plots.case_figures(out, name) for name in ("ch3", "ch5-beam", "ch5-membrane"))
+    figures = [*ch3, ch4_figure(out, scores), beam[0], *membrane, beam[1]]
     lines = ["# structbench: the dissertation reproduced through FMUs", "",
              "Every figure below comes from FMUs driven by the harness, trace files and the",
              "identifiers; medians and spreads are over Monte Carlo noise realisations.",

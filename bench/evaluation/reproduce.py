@@ -1,18 +1,26 @@
 """The dissertation end to end: every case through FMUs, the harness, trace
-files, the identifiers and scoring, beside the dissertation's own figures.
-
-Each campaign of ``campaigns/`` runs into ``OUT/<campaign>/``; each
-identification (:data:`STEPS`) writes ``results/<method>-<tag>.json`` there;
-:func:`summarize` condenses the scores into the keys of ``structbench
-reproduce --json``.
+files, the identifiers and scoring, into ``OUT/<campaign>/`` (only the tests
+an identification of :data:`STEPS` reads; results in ``results/``), two
+cases at a time (:func:`run_all`), a case's traces deleted once it is scored
+unless kept; :func:`summarize` condenses the scores into the keys of
+``structbench reproduce --json`` (the dissertation's figures: :mod:`.report`).
 """
 from __future__ import annotations
 
 import dataclasses
-from importlib import resources
+import json
+import os
+import shutil
+import subprocess
 import sys
+import time
+import traceback
+from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from fnmatch import fnmatch
+from importlib import resources
+from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any, Callable
 
@@ -22,6 +30,7 @@ from structbench.models.errors import UserError
 
 from structbench.harness.campaign import Campaign, load_campaign
 from structbench.harness.run import run_campaign
+from structbench.dispatch.parallel import available_cores
 from structbench.dispatch.runs import identify_folder
 
 from . import beyond_modal
@@ -31,21 +40,6 @@ from .scores import score_campaign
 
 CAMPAIGNS = Path(str(resources.files("structbench.campaigns")))
 NAMES = ("ch3", "ch3-damped", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membrane", "ch5-damped")
-
-# The dissertation's figures (shared/reference/dissertation-cases.md).
-PUBLISHED: dict[str, dict[str, Any]] = {
-    "ch3-m4": {"rms": 0.0284, "rms_printed": 0.056, "freq_error_pct_max": 0.6},
-    "ch3-m8": {"rms": 0.0183, "rms_printed": 0.035, "freq_error_pct_max": 0.6},
-    "ch4-case1": {"rms_initial": 0.122, "rms": 0.0, "iterations": 5},
-    "ch4-case2": {"rms_initial": 0.0293, "rms": 0.0, "iterations": 5},
-    "ch4-case1-noisy": {"rms_initial": 0.122, "note": "improves on the postulated model (plotted values lost)"},
-    "ch4-case2-noisy": {"rms_initial": 0.0293, "note": "improves on the postulated model (plotted values lost)"},
-    "ch5-beam": {"omega": [0.09834, 0.39433, 0.88821, 1.57910, 2.46734, 3.55311, 6.68212, 8.49410,
-                           10.19992, 11.46529],
-                 "freq_error_pct": [-0.4, -0.1, 0.0, 0.0, 0.0, 0.0, 38.2, 34.5, 27.6, 16.2]},
-    "ch5-membrane": {"lambda": [0.0, 1.1835, 1.1948, 2.7669, 5.8482],
-                     "lambda_error_pct": [0.0, -0.6, 0.3, 0.1, 0.1]},
-}
 
 
 @dataclass(frozen=True)
@@ -175,29 +169,176 @@ def campaign_with_repetitions(path: Path, repetitions: int | None) -> Campaign:
     return dataclasses.replace(campaign, tests=tests)
 
 
-def run_all(out: Path, repetitions: int | None, jobs: int | None,
-            say: Callable[[str], None]) -> dict[str, dict[str, Any]]:
-    """Run every campaign and identification; returns scores per campaign."""
+# Tests beyond the dissertation whose every repetition is a long simulation of
+# its own keep their campaign's repetitions (fewer when asked): the damped
+# beam's 4 records of 8 h, each under a new ambient force (its [check] gates
+# are set for 4; 20 took a third of the reproduction's CPU time).
+OWN_REPETITIONS = {"ch5-damped": ("random",)}
+
+
+def reproduction_campaign(name: str, repetitions: int | None) -> Campaign:
+    """Campaign ``name`` as the reproduction runs it: the tests an identification
+    of :data:`STEPS` reads (ch4-case1 uses its 0.5 rad/s tests alone) with
+    ``repetitions`` as :func:`campaign_with_repetitions` gives them, but
+    :data:`OWN_REPETITIONS`."""
+    base, steps = load_campaign(CAMPAIGNS / f"{name}.toml"), [s for s in STEPS if s.campaign == name]
+    own = {t.name: t.repetitions for t in base.tests if t.name in OWN_REPETITIONS.get(name, ())}
+    tests = tuple(dataclasses.replace(t, repetitions=min(own.get(t.name, t.repetitions), t.repetitions))
+                  for t in campaign_with_repetitions(CAMPAIGNS / f"{name}.toml", repetitions).tests
+                  if any((not s.groups or t.group in s.groups)
+                         and (not s.tests or any(fnmatch(t.name, p) for p in s.tests)) for s in steps))
+    return dataclasses.replace(base, tests=tests)
+
+
+KEEP_TRACES = "STRUCTBENCH_KEEP_TRACES"  # environment: "1" keeps the trace files (the CLI's --keep-traces)
+DONE = "reproduced.json"  # in OUT/<case>/ once the case is complete: what it ran with
+LANES = 2  # cases at the same time; ORDER: longest first, so that the last to start is short
+ORDER = ("ch4-case2", "ch5-damped", "ch3", "ch4-case1", "ch5-beam", "ch3-damped", "ch5-membrane")
+
+
+def _complete(folder: Path, name: str, done: dict[str, Any]) -> bool:
+    """Whether ``folder`` holds case ``name`` complete as ``done`` asks (repetitions; traces kept)."""
+    try:
+        was = json.loads((folder / DONE).read_text())
+        ok = was["repetitions"] == done["repetitions"] and (was["traces_kept"] or not done["traces_kept"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return ok and all((folder / "results" / f"{s.stem}.json").is_file() for s in STEPS if s.campaign == name)
+
+
+def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, keep_traces: bool,
+             say: Callable[[str], None]) -> dict[str, Any]:
+    """Simulate, identify and score one case into ``out/<name>``; returns its
+    scores. Every progress line names the case and its time so far."""
+    start, label, folder = time.perf_counter(), f"[{NAMES.index(name) + 1}/{len(NAMES)}] {name}", out / name
+    done = {"repetitions": repetitions, "traces_kept": keep_traces}
+
+    def line(text: str) -> None:
+        say(f"{label} {time.perf_counter() - start:5.1f} s: {text}")
+
+    if _complete(folder, name, done):
+        scores = score_campaign(folder)
+        line("complete from an earlier run: its results scored again")
+        return scores
+    (folder / DONE).unlink(missing_ok=True)
+    campaign = reproduction_campaign(name, repetitions)
+    line(f"simulating {sum(t.repetitions for t in campaign.tests)} traces through the FMU")
+    status = run_campaign(campaign, folder, jobs=jobs, fmu_dir=out / "fmus")
+    if status.failed:
+        raise UserError(f"{status.failed} test(s) failed; see {folder / 'status.json'}", field=name)
+    line(f"simulated ({status.skipped} of {len(status.tests)} tests were there already)")
+    for step in (s for s in STEPS if s.campaign == name):
+        begun = time.perf_counter()
+        identify_folder(folder, step.method, groups=step.groups or None, tests=step.tests or None,
+                        joint=step.joint, tag=step.tag, options=step.options,
+                        jobs=None if jobs is None else max(1, jobs))
+        line(f"identified {step.stem} ({time.perf_counter() - begun:.1f} s): {step.variant}")
+    scores = score_campaign(folder)
+    from .plots import case_figures  # (matplotlib) drawn here, beside the other case, not after the last
+    case_figures(out, name)
+    if not keep_traces:
+        shutil.rmtree(folder / "traces", ignore_errors=True)
+    (folder / DONE).write_text(json.dumps(done) + "\n")
+    line("done" + ("" if keep_traces else "; traces deleted (--keep-traces keeps them)"))
+    return scores
+
+
+def run_all(out: Path, repetitions: int | None, jobs: int | None, say: Callable[[str], None],
+            keep_traces: bool | None = None) -> dict[str, dict[str, Any]]:
+    """Every case (:func:`run_case`); returns scores per campaign. ``jobs``
+    processes in all (default one per core): two cases at a time, each with
+    half of them (under 2: in the case's own process); 0 or 1: one case after
+    the other here. ``keep_traces``: default ``STRUCTBENCH_KEEP_TRACES``."""
     missing = [n for n in NAMES if not (CAMPAIGNS / f"{n}.toml").is_file()]
     if missing:
         raise UserError(f"campaign files {missing} not found in {CAMPAIGNS} (a broken installation)",
                         field="campaigns")
-    fmu_dir = out / "fmus"
-    scores = {}
-    for i, name in enumerate(NAMES, start=1):
-        folder = out / name
-        say(f"[{i}/{len(NAMES)}] {name}: simulating through the FMU")
-        status = run_campaign(campaign_with_repetitions(CAMPAIGNS / f"{name}.toml", repetitions), folder,
-                              jobs=jobs, fmu_dir=fmu_dir)
-        if status.failed:
-            raise UserError(f"{status.failed} test(s) failed; see {folder / 'status.json'}", field=name)
-        for step in (s for s in STEPS if s.campaign == name):
-            say(f"      identify {step.stem}: {step.variant}")
-            identify_folder(folder, step.method, groups=step.groups or None, tests=step.tests or None,
-                            joint=step.joint, tag=step.tag, options=step.options,
-                            jobs=None if jobs is None else max(1, jobs))
-        scores[name] = score_campaign(folder)
+    if keep_traces is None:
+        keep_traces = os.environ.get(KEEP_TRACES, "0").strip() not in ("", "0")
+    total = available_cores() if jobs is None else jobs
+    if total <= 1:
+        return {name: run_case(name, out, repetitions, jobs, keep_traces, say) for name in NAMES}
+    each = total // LANES if total >= 2 * LANES else 0  # 0: in the lane's own process
+    scores = _run_lanes([(name, out, repetitions, each, keep_traces) for name in ORDER], say)
+    return {name: scores[name] for name in NAMES}
+
+
+# ---- cases two at a time, each lane a Python of its own (started by subprocess) ----
+LANE = ("import sys; sys.path[:] = sys.argv[3:]; from structbench.evaluation.reproduce import serve_lane; "
+        "serve_lane(int(sys.argv[1]), int(sys.argv[2]))")
+
+
+class _Lane:
+    """A Python running :func:`serve_lane` (its output on the caller's stderr):
+    cases in over one pipe, progress lines and scores back over the other."""
+
+    def __init__(self, queue: deque) -> None:
+        (to_child, from_parent), (to_parent, from_child) = os.pipe(), os.pipe()
+        self.process = subprocess.Popen([sys.executable, "-c", LANE, str(to_child), str(from_child), *sys.path],
+                                        pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL, stdout=2)
+        os.close(to_child)
+        os.close(from_child)
+        self.send, self.recv = Connection(from_parent, readable=False), Connection(to_parent, writable=False)
+        self.start(queue)
+
+    def start(self, queue: deque) -> None:
+        self.case: str | None = queue[0][0] if queue else None
+        if queue:
+            self.send.send(queue.popleft())
+
+    def close(self) -> None:
+        self.send.close()
+        self.recv.close()
+        self.process.wait()  # it exits once the pipe is closed (after its case, when one runs)
+
+
+def _run_lanes(cases: list[tuple[Any, ...]], say: Callable[[str], None]) -> dict[str, dict[str, Any]]:
+    """Run ``cases`` (:func:`run_case`'s arguments but ``say``) on :data:`LANES`
+    lanes; the first error stops the dispatching and is raised once the
+    running cases are done."""
+    queue, scores, error = deque(cases), {}, None
+    lanes = [_Lane(queue) for _ in range(min(LANES, len(cases)))]
+    try:
+        while busy := {lane.recv: lane for lane in lanes if lane.case}:
+            for conn in wait(list(busy)):
+                lane = busy[conn]
+                try:
+                    kind, value = conn.recv()
+                except EOFError:
+                    code = lane.process.wait()
+                    kind, value = "error", RuntimeError(f"{lane.case}: its process died (exit status {code})")
+                if kind == "line":
+                    say(value)
+                    continue
+                if kind == "scores":
+                    scores[lane.case] = value
+                error = error or (value if kind == "error" else None)
+                lane.start(queue if error is None and lane.process.poll() is None else deque())
+    finally:
+        for lane in lanes:
+            lane.close()
+    if error is not None:
+        raise error
     return scores
+
+
+def serve_lane(read_fd: int, write_fd: int) -> None:
+    """A lane's loop: run each case received, sending its progress lines and
+    then its scores (or its error), until the pipe closes."""
+    recv, send = Connection(read_fd, writable=False), Connection(write_fd, readable=False)
+    while True:
+        try:
+            args = recv.recv()
+        except EOFError:
+            return
+        try:
+            answer: tuple[str, Any] = ("scores", run_case(*args, say=lambda text: send.send(("line", text))))
+        except UserError as err:  # rebuilt from its text: every subclass then unpickles
+            answer = ("error", UserError(str(err)))
+        except Exception as err:  # noqa: BLE001 - handed to the caller, which raises it
+            traceback.print_exc()
+            answer = ("error", RuntimeError(f"{args[0]}: {type(err).__name__}: {err}"))
+        send.send(answer)
 
 
 def _s(summary: dict[str, Any], key: str) -> float:
@@ -256,6 +397,3 @@ def _modes(summary: dict[str, Any], count: int, squared: bool = False) -> dict[s
         out["lambda_error_pct"] = frequency_error_pct(omega**2, np.asarray(summary["omega_true"][:count]) ** 2).tolist()
     return out
 
-
-def stderr(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
