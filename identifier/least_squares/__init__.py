@@ -31,7 +31,9 @@ every term of the equations by one stable low-pass ``L = s^e (lam / (s +
 lam))^r``, ``M (L a) + C (L v) + K (L u) = L f``, each slot a proper filter
 of whichever quantity the DOF has (:mod:`identifier.least_squares.prefilter`,
 :mod:`identifier.least_squares.quantities`: ``lam`` twice the records'
-band); the filtered noise is coloured and correlated between slots, which
+band; their discretisation error, computed on a simulation of the first
+estimate, removed by :mod:`identifier.least_squares.defect`); the filtered
+noise is coloured and correlated between slots, which
 the bias compensation and the first-order standard errors of
 :mod:`identifier.least_squares.colored` take into account. Chosen over
 repeated integration (``M u + C int u + K intint u = intint f``; its
@@ -57,6 +59,7 @@ from structbench.models import ModelError, Structure
 
 from .bias_compensated import solve_compensated
 from .colored import solve_colored
+from .defect import corrected
 from ..errors import IdentificationError
 from .estimate import Estimate
 from .integrate import METHODS, integrate
@@ -209,8 +212,13 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
     estimated: list[str] = []
     if not all(_every_dof_has(t, "acceleration", model) for t in traces) and (
             estimator == "bias-compensated" and samples is None and integration == "auto"):
-        records, prefilter = prefiltered_run(traces, model, None, lambda t, c: _sigma(t, c, estimated))
+        sigma_of = (lambda t, c: _sigma(t, c, estimated))
+        records, prefilter = prefiltered_run(traces, model, None, sigma_of)
         est = solve_colored(model, records, weighting, rcond)
+        fixed = corrected(traces, model, records, prefilter["lambda"], est.values, sigma_of)
+        if fixed is not None:
+            records, est = fixed, solve_colored(model, fixed, weighting, rcond)
+        prefilter["defect_correction"] = fixed is not None
         motion = Motion.stack([r.motion for r in records])
         how, extra = ["prefiltered"], {"prefilter": prefilter}
     else:

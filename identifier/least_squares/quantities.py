@@ -75,10 +75,12 @@ def record_band(trace: Trace, model: Structure) -> float:
     return band(data, np.array([LEVELS[c.quantity] for c in chans]), trace.dt)
 
 
-def prefiltered(trace: Trace, model: Structure, lam: float,
-                sigma_of: Callable[[Trace, Channel], np.ndarray]) -> tuple[Record, Design]:
+def prefiltered(trace: Trace, model: Structure, lam: float, sigma_of: Callable[[Trace, Channel], np.ndarray],
+                responses: dict[str, np.ndarray] | None = None) -> tuple[Record, Design]:
     """The :class:`Record` of one trace through the prefilter at ``lam`` rad/s;
-    ``sigma_of(trace, channel)`` gives a channel's noise (n_t,)."""
+    ``sigma_of(trace, channel)`` gives a channel's noise (n_t,). ``responses``
+    (quantity -> (n_t, n)) replaces the channels' data by other signals of
+    the same channels (a simulation: :mod:`identifier.least_squares.defect`)."""
     from . import Motion
 
     chans = response_channels(trace, model)
@@ -89,7 +91,8 @@ def prefiltered(trace: Trace, model: Structure, lam: float,
     sources = []
     for ell in np.unique(levels):
         dofs = np.flatnonzero(levels == ell)
-        data = np.column_stack([chans[j].data for j in dofs])
+        data = np.column_stack([chans[j].data if responses is None else responses[chans[j].quantity][:, j]
+                                for j in dofs])
         sigma = np.column_stack([sigma_of(trace, chans[j]) for j in dofs])
         filters = tuple(design.slot(2 - b, int(ell), trace.dt) for b in range(3))
         for b, f in enumerate(filters):
@@ -102,6 +105,8 @@ def prefiltered(trace: Trace, model: Structure, lam: float,
         force[:, j] += c.data
         fsigma[:, j] = np.hypot(fsigma[:, j], sigma_of(trace, c))
     fdofs = np.unique(fcols)
+    if responses is not None:
+        force = responses["force"]
     ffilter = design.force(trace.dt, held=bool(np.isclose(trace.step, trace.dt)))
     slots[3][:, fdofs] = ffilter(force[:, fdofs])
     sources.append(Source(fdofs, fsigma[:, fdofs], (3,), (ffilter,)))
