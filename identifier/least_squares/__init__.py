@@ -72,6 +72,7 @@ from .quantities import prefiltered_run, response_channels
 RCOND = 1e-7
 INTEGRATIONS = ("auto",) + METHODS
 ESTIMATORS = ("bias-compensated", "ols")
+DEFECT_PASSES = 4  # defect corrections at most (each from the latest estimate; stops when it moves < 0.01 s.e.)
 __all__ = ["ESTIMATORS", "INTEGRATIONS", "WEIGHTINGS", "Estimate", "Motion", "identify", "solve",
            "solve_compensated", "trace_motion"]
 
@@ -215,10 +216,15 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         sigma_of = (lambda t, c: _sigma(t, c, estimated))
         records, prefilter = prefiltered_run(traces, model, None, sigma_of)
         est = solve_colored(model, records, weighting, rcond)
-        fixed = corrected(traces, model, records, prefilter["lambda"], est.values, sigma_of)
-        if fixed is not None:
-            records, est = fixed, solve_colored(model, fixed, weighting, rcond)
-        prefilter["defect_correction"] = fixed is not None
+        passes = 0
+        for _ in range(DEFECT_PASSES):
+            fixed = corrected(traces, model, records, prefilter["lambda"], est.values, sigma_of)
+            if fixed is None:
+                break
+            before, est, passes = est.values, solve_colored(model, fixed, weighting, rcond), passes + 1
+            if np.max(np.abs(est.values - before) / np.maximum(est.std_errors, 1e-300)) < 0.01:
+                break
+        prefilter["defect_corrections"] = passes
         motion = Motion.stack([r.motion for r in records])
         how, extra = ["prefiltered"], {"prefilter": prefilter}
     else:

@@ -69,10 +69,13 @@ def response_channels(trace: Trace, model: Structure) -> list[Channel]:
 
 
 def record_band(trace: Trace, model: Structure) -> float:
-    """The band (rad/s) of one trace's chosen response channels."""
+    """The band (rad/s) of one trace's chosen response channels of the lowest
+    level (a displacement-equivalent spectrum of a higher level is dominated
+    by its noise at low frequencies)."""
     chans = response_channels(trace, model)
-    data = np.column_stack([c.data for c in chans])
-    return band(data, np.array([LEVELS[c.quantity] for c in chans]), trace.dt)
+    lowest = min(LEVELS[c.quantity] for c in chans)
+    data = np.column_stack([c.data for c in chans if LEVELS[c.quantity] == lowest])
+    return band(data, np.full(data.shape[1], lowest), trace.dt)
 
 
 def prefiltered(trace: Trace, model: Structure, lam: float, sigma_of: Callable[[Trace, Channel], np.ndarray],
