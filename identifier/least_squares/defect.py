@@ -20,7 +20,8 @@ Skipped when the estimate is not a physical model (a negative mass or
 stiffness) or its simulation is not finite.
 
 Assumes, as the prefilter does, the structure at rest at the first sample.
-Cost: one simulation per record (:meth:`structbench.models.Structure.state_space`).
+Cost: one simulation per record and pass (:func:`simulate`; dense ``2 n x 2 n``
+eigenproblem, so for models of moderate size).
 """
 from __future__ import annotations
 
