@@ -42,8 +42,9 @@ ones first-order hold, followed by :data:`FORCE_SMOOTHINGS` passes of ``S``:
 measured on a 1-DOF oscillator (1 ms, ``omega = 100`` rad/s, ``lam`` 50-400
 rad/s, impulse and random forces, noise-free) the force slot is then
 consistent with the response slots to 1e-6 in scale (one pass: 6e-4, none:
-1.3e-3); what remains is ``O((lam dt)^2)``: 0.02 % on that damping at
-``lam = 200``, 0.3 % at 400. Every slot is delayed to :attr:`SlotFilter.delay`
+1.3e-3); what remains (``O(lam dt^2)``, and ``O(dt)`` for accelerations,
+which jump with the held force) :mod:`identifier.least_squares.defect`
+computes on a simulation and removes. Every slot is delayed to :attr:`SlotFilter.delay`
 samples: equation ``k`` holds at ``t_(k - delay)``.
 
 Noise. A channel's noise is white with per-sample standard deviation
