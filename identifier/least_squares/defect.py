@@ -16,8 +16,12 @@ the records as filtered) are solved again; repeated from the new estimate
 suffices when the residual is ``O((omega dt)^2)`` (displacements,
 velocities); accelerations in a mix leave an ``O(dt)`` one (their jumps
 with the held force) and a first estimate far enough off to need a few.
-Skipped when the estimate is not a physical model (a negative mass or
-stiffness) or its simulation is not finite.
+Skipped when ``lam dt <`` :data:`MIN_LAM_DT` (the residual of displacements
+and velocities is then negligible, and a simulation of a noisy estimate's
+high modes, at ``omega dt`` far above ``lam dt``, would add more than it
+removes), when the estimate is not a physical model (a negative mass or
+stiffness), its simulation is not finite, or its residual exceeds
+:data:`MAX_DEFECT` of the force (the estimate, not the discretisation, is off).
 
 Assumes, as the prefilter does, the structure at rest at the first sample.
 Cost: one simulation per record and pass (:func:`simulate`; dense ``2 n x 2 n``
@@ -37,6 +41,9 @@ from .quantities import prefiltered, response_channels
 from .regression import layout, raw
 from . import whitened
 
+MIN_LAM_DT = 0.01  # below, the residual is O(1e-6) of the force and not corrected
+MAX_DEFECT = 0.5  # a residual above this share of the force slot (RMS) is not a discretisation error
+
 
 def corrected(traces: Sequence[Trace], model: Structure, records: list[Record], lam: float,
               p_unknown: np.ndarray, sigma_of: Callable[[Trace, Channel], np.ndarray]) -> list[Record] | None:
@@ -46,6 +53,8 @@ def corrected(traces: Sequence[Trace], model: Structure, records: list[Record], 
     (module docstring)."""
     from . import Motion
 
+    if max(lam * t.dt for t in traces) < MIN_LAM_DT:
+        return None
     p = model.values.copy()
     p[model.kind_mask()] = p_unknown
     try:
@@ -69,6 +78,8 @@ def corrected(traces: Sequence[Trace], model: Structure, records: list[Record], 
         sim_rec, _ = prefiltered(trace, model, lam, sigma_of, responses=sim | {"force": force})
         d = (mt.T @ raw(sim_rec.motion, slice(None))).T  # (n_t, n): the residual of exact data
         m = rec.motion
+        if np.sqrt(np.mean(d**2)) > MAX_DEFECT * np.sqrt(np.mean(m.force**2)):
+            return None  # not a discretisation error: the estimate is too far off to correct from
         out.append(Record(Motion(m.times, m.displacement, m.velocity, m.acceleration, m.force + d, m.sigma),
                           rec.sources))
     return out
