@@ -69,8 +69,9 @@ def test_shadows_of_a_strong_mode_in_random_data_are_not_modes(seed, monkeypatch
     every mode is found within 0.3 % (about three standard errors of the
     record, ``sqrt(zeta / (omega T))``) and nothing else; without the shadow
     rule (only modes within 1 % merged) poles of the strong modes' own shape
-    beside them reach the support tests too (which reject them as well:
-    stable at too few orders, or duplicates the record does not resolve)."""
+    beside them come out as candidates too: reported (structure 11), or
+    caught by the support tests as duplicates the record does not resolve
+    (structure 23)."""
     y, omega, zeta, dt, _ = modal_fuzz.stationary(np.random.default_rng(seed), seed)
     result = modal.identify([modal_fuzz.trace(y, dt)])
     assert len(result.omega) == omega.size
@@ -78,8 +79,8 @@ def test_shadows_of_a_strong_mode_in_random_data_are_not_modes(seed, monkeypatch
     criteria = modal.Criteria
     monkeypatch.setattr(modal, "Criteria", lambda **kw: criteria(shadow_support=0.0, **kw))
     loose = modal.identify([modal_fuzz.trace(y, dt)])
-    assert len(loose.omega) == omega.size
-    assert len(loose.details["rejected"]) > len(result.details["rejected"])
+    seen = len(loose.omega) + len(loose.details["rejected"])
+    assert seen > len(result.omega) + len(result.details["rejected"])
 
 
 def test_random_response_uses_only_the_lags_that_carry_signal(monkeypatch):

@@ -34,18 +34,29 @@ Steps (each its own module):
    decide, lost one such mode of ``benchmarks/modal_fuzz.py`` at 0.35 and
    kept another at 0.50 only by the ``STEADY`` exemption);
 4. standard errors of every frequency and damping ratio by the delete-one-group
-   jackknife over the sample groups (:mod:`identifier.modal.uncertainty`); a
-   mode that more than one replicate does not find again is a noise mode and
-   dropped (a mode missed by one replicate is kept without stated errors).
-   The replicates' subspaces are computed in the background while steps 2-3
-   run; ``uncertainty="off"`` skips this step (about half the time).
+   jackknife over the sample groups (:mod:`identifier.modal.uncertainty`;
+   a mode one replicate misses gets them from the others), plus the
+   scatter over the model orders and, in a stationary record of ``T`` s,
+   the short-record bias (``1 / T`` rad/s on omega, ``1 / (omega T)`` on
+   zeta: :mod:`identifier.modal.support`). The replicates' subspaces are
+   computed in the background while steps 2-3 run; ``uncertainty="off"``
+   skips this step (about half the time);
+5. support (:func:`identifier.modal.support.judge`): a mode is reported only
+   when the record carries it (its periods and, in a stationary record, its
+   decay times in the record; stable at half the model orders, or
+   precise; found again by all jackknife replicates but one; finite standard errors;
+   not a duplicate the record does not resolve). The others, and the
+   candidates of step 3 below ``COHERENCE``, are listed in
+   ``details["rejected"]`` with their reason; ``details["warnings"]`` says
+   when a stationary record is under two periods of its lowest frequency.
 
 Assumptions: a linear time-invariant structure, the response either a free
 decay or stationary (unmeasured broadband excitation), white sensor noise;
 no force channel is needed or used. Several traces of one run (several
 impulse tests, say) add their covariances, which is how two tests separate
 a pair of close modes that one test moves as a single shape. Output-only
-data cannot scale the shapes (they come normalised to max |.| = 1) and cannot
+data cannot scale the shapes (they come normalised to max |.| = 1; with
+sensors of several quantities each entry is in its own sensor's) and cannot
 see a mode that no sensor moves in (nor, with more than 20 channels, one the
 20 principal directions miss: a mode far weaker than 20 others); with fewer
 samples than ``20 (p + q)`` or a mode with under about one period in the
@@ -132,7 +143,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
     all jackknife replicates but at most one find again (spurious noise modes
-    do not). ``refine``: ``auto`` fits free responses whole to split close
+    do not); off, a mode without finite errors is still not reported. ``refine``: ``auto`` fits free responses whole to split close
     pairs (:mod:`identifier.modal.close_pairs`), ``off`` does not. ``uncertainty``:
     ``off`` skips the jackknife (about half the time): no standard errors
     (NaN) and no check that replicates find each mode again. Changes nothing
