@@ -196,3 +196,12 @@ def test_random_record_of_few_periods_reports_nothing_it_cannot_support():
     assert all(np.isfinite(result.omega_std))
     assert all(r["reason"] for r in result.details["rejected"])
     assert "holds 1 periods" in result.details["warnings"][0]
+
+
+def test_record_too_short_for_any_model_order_is_one_clear_error():
+    """73 samples of one sensor (held-out seed 200076 crashed on them with an
+    empty stabilisation diagram): one error naming the record instead."""
+    y = free_decays(np.array([55.5]), np.array([0.01]), np.array([[1.0]]), np.array([[1.0]]), 0.0181, 73,
+                    0.02, 3)[0]
+    with pytest.raises(IdentificationError, match="allow no model order"):
+        modal.identify([modal_fuzz.trace(y, 0.0181)])

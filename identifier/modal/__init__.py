@@ -176,6 +176,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
             p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, span=span)
             cov = cov.truncated(p + q - 1)
     order_cap = min(max_order, q * r, p * mo - mo)
+    if order_cap < 2:
+        raise IdentificationError(f"{traces[0].path.name}: {shortest} samples of {m} channel(s) allow no model "
+                                  f"order (block rows {p}, columns {q}); give a longer record", field="block_rows")
     full = cov.mean()
     W = row_projection(full, mo)
     with one_blas_thread():  # many small factorisations: threads only cost here
