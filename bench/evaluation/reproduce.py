@@ -1,9 +1,8 @@
 """The dissertation end to end: every case through FMUs, the harness, trace
-files, the identifiers and scoring, into ``OUT/<campaign>/`` (only the tests
-an identification of :data:`STEPS` reads; results in ``results/``), two
-cases at a time (:func:`run_all`), a case's traces deleted once it is scored
-unless kept; :func:`summarize` condenses the scores into the keys of
-``structbench reproduce --json`` (the dissertation's figures: :mod:`.report`).
+files, the identifiers and scoring into ``OUT/<campaign>/`` (the tests an
+identification of :data:`STEPS` reads), two cases at a time (:func:`run_all`),
+a case's traces deleted once it is scored unless kept; :func:`summarize`
+condenses the scores for ``structbench reproduce --json`` (cf. :mod:`.report`).
 """
 from __future__ import annotations
 
@@ -22,21 +21,18 @@ from fnmatch import fnmatch
 from importlib import resources
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from structbench.models.errors import UserError
 
-from structbench.harness.campaign import Campaign, load_campaign
-from structbench.harness.run import run_campaign
-from structbench.dispatch.parallel import available_cores
-from structbench.dispatch.runs import identify_folder
-
 from . import beyond_modal
 from .beyond_least_squares import beyond
 from .metrics import frequency_error_pct
-from .scores import score_campaign
+
+if TYPE_CHECKING:
+    from structbench.harness.campaign import Campaign
 
 CAMPAIGNS = Path(str(resources.files("structbench.campaigns")))
 NAMES = ("ch3", "ch3-damped", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membrane", "ch5-damped")
@@ -159,6 +155,7 @@ STEPS: tuple[Step, ...] = (
 
 def campaign_with_repetitions(path: Path, repetitions: int | None) -> Campaign:
     """Load a campaign; tests with Monte Carlo repetitions get ``repetitions``."""
+    from structbench.harness.campaign import load_campaign
     campaign = load_campaign(path)
     if repetitions is None:
         return campaign
@@ -181,6 +178,7 @@ def reproduction_campaign(name: str, repetitions: int | None) -> Campaign:
     of :data:`STEPS` reads (ch4-case1 uses its 0.5 rad/s tests alone) with
     ``repetitions`` as :func:`campaign_with_repetitions` gives them, but
     :data:`OWN_REPETITIONS`."""
+    from structbench.harness.campaign import load_campaign
     base, steps = load_campaign(CAMPAIGNS / f"{name}.toml"), [s for s in STEPS if s.campaign == name]
     own = {t.name: t.repetitions for t in base.tests if t.name in OWN_REPETITIONS.get(name, ())}
     tests = tuple(dataclasses.replace(t, repetitions=min(own.get(t.name, t.repetitions), t.repetitions))
@@ -210,6 +208,10 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
              say: Callable[[str], None]) -> dict[str, Any]:
     """Simulate, identify and score one case into ``out/<name>``; returns its
     scores. Every progress line names the case and its time so far."""
+    from structbench.dispatch.runs import identify_folder  # imported here, not by the process that
+    from structbench.harness.run import run_campaign  # only hands the cases to the lanes
+    from .plots import case_figures  # drawn here, beside the other lane's case, not after the last
+    from .scores import score_campaign
     start, label, folder = time.perf_counter(), f"[{NAMES.index(name) + 1}/{len(NAMES)}] {name}", out / name
     done = {"repetitions": repetitions, "traces_kept": keep_traces}
 
@@ -217,9 +219,8 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
         say(f"{label} {time.perf_counter() - start:5.1f} s: {text}")
 
     if _complete(folder, name, done):
-        scores = score_campaign(folder)
         line("complete from an earlier run: its results scored again")
-        return scores
+        return score_campaign(folder)
     (folder / DONE).unlink(missing_ok=True)
     campaign = reproduction_campaign(name, repetitions)
     line(f"simulating {sum(t.repetitions for t in campaign.tests)} traces through the FMU")
@@ -234,7 +235,6 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
                         jobs=None if jobs is None else max(1, jobs))
         line(f"identified {step.stem} ({time.perf_counter() - begun:.1f} s): {step.variant}")
     scores = score_campaign(folder)
-    from .plots import case_figures  # (matplotlib) drawn here, beside the other case, not after the last
     case_figures(out, name)
     if not keep_traces:
         shutil.rmtree(folder / "traces", ignore_errors=True)
@@ -255,7 +255,7 @@ def run_all(out: Path, repetitions: int | None, jobs: int | None, say: Callable[
                         field="campaigns")
     if keep_traces is None:
         keep_traces = os.environ.get(KEEP_TRACES, "0").strip() not in ("", "0")
-    total = available_cores() if jobs is None else jobs
+    total = (os.cpu_count() or 1) if jobs is None else jobs
     if total <= 1:
         return {name: run_case(name, out, repetitions, jobs, keep_traces, say) for name in NAMES}
     each = total // LANES if total >= 2 * LANES else 0  # 0: in the lane's own process
@@ -299,6 +299,7 @@ def _run_lanes(cases: list[tuple[Any, ...]], say: Callable[[str], None]) -> dict
     queue, scores, error = deque(cases), {}, None
     lanes = [_Lane(queue) for _ in range(min(LANES, len(cases)))]
     try:
+        from . import plots  # noqa: F401 - matplotlib for the report, imported while the lanes work
         while busy := {lane.recv: lane for lane in lanes if lane.case}:
             for conn in wait(list(busy)):
                 lane = busy[conn]
