@@ -1,4 +1,4 @@
-"""Fast HDF5 reads (identifier/hdf5_reads.py) give what h5py's high-level
+"""Fast HDF5 reads (identifier/io/hdf5_reads.py) give what h5py's high-level
 reads give, for every kind of attribute and dataset a trace may hold."""
 from __future__ import annotations
 
@@ -6,7 +6,6 @@ import h5py
 import numpy as np
 import pytest
 
-from structbench.identifier import hdf5_reads
 from structbench.identifier.io.hdf5_reads import attributes, decoded, samples
 from structbench.identifier.io.traces import read_trace
 from identify_synth import cantilever_trace
