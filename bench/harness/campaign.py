@@ -23,6 +23,7 @@ from structbench.models.errors import UserError
 from structbench.models.input_text import read_input_text
 
 from .campaign_size import Budget, CampaignSize
+from .prior import PriorSpec, damage_parameters, read_prior
 from .external import BUILTIN, PLACEHOLDERS, QUANTITY_KEYS, VariableMap, closest, fmu_variables, pattern_fields
 from .test_entries import TEST_KEYS, TestReader, TestSpec
 from .toml_lines import Path as KeyPath
@@ -32,7 +33,7 @@ from .toml_table import CampaignError, Table, key_error
 __all__ = ["Campaign", "CampaignError", "TestSpec", "load_campaign"]
 
 TOP_KEYS = ("name", "description", "structure", "seed", "parameters", "mapping", "locations",
-            "truth", "check", "limits", "defaults", "tests")
+            "truth", "check", "limits", "defaults", "tests", "prior", "damage")
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,7 @@ class Campaign:
     lines: Mapping[KeyPath, int] = field(repr=False, compare=False)
     true_model: Model | None = field(default=None, repr=False, compare=False)
     size: CampaignSize = field(default_factory=CampaignSize, compare=False)  # what a run writes and simulates
+    prior: PriorSpec | None = field(default=None, compare=False)  # [prior] (prior.py)
 
     def location(self, node: int) -> tuple[float, float, float]:
         """Node coordinates (m), padded to 3; NaN when unknown."""
@@ -226,6 +228,10 @@ def load_campaign(path: str | Path) -> Campaign:
     mapping = reader.mapping(external=fmu is not None)
     locations = reader.locations()
     parameters = reader.parameters(model, fmu)
+    parameters |= damage_parameters(top.table("damage"), model, parameters)  # [damage] (prior.py)
+    prior = read_prior(top.table("prior"), path)
+    if prior is not None and model is None:
+        raise top.error("prior", "a [prior] needs a built-in or TOML structure")
     truth = top.table("truth").data or None
     if truth is not None and model is not None:
         raise top.error("truth", "the truth of a built-in or TOML structure comes from its model")
@@ -236,7 +242,7 @@ def load_campaign(path: str | Path) -> Campaign:
     tests = reader.tests(model, locations, mapping, seed, budget)
     campaign = Campaign(name, path, text, structure, model, fmu, tests, parameters, mapping, locations, truth,
                         check, seed, tuple(reader.variables), reader.lines,
-                        with_parameters(model, parameters) if model is not None else None, budget.size)
+                        with_parameters(model, parameters) if model is not None else None, budget.size, prior)
     if fmu is not None:
         campaign.check_variables(fmu_variables(fmu), fmu.name)
     return campaign

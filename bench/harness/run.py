@@ -17,6 +17,7 @@ from .fmu_setup import prepare_fmu
 from .folder import CampaignStatus, Folder
 from .pool import make_pool
 from .schedule import Scheduler
+from .prior import write_prior
 from .truth import truth
 
 Progress = Callable[[CampaignStatus], None]
@@ -41,6 +42,7 @@ def run_campaign(campaign: Campaign | str | Path, out: str | Path, jobs: int | N
     folder.prepare(campaign)
     bench = prepare_fmu(campaign, Path(fmu_dir) if fmu_dir else folder.root / "fmus")
     folder.write_truth(truth(campaign))
+    write_prior(folder.root, campaign.prior, campaign.true_model)  # [prior]: DIR/prior.json
     status = folder.status(campaign, bench)
     folder.write_status(status)
     pool = make_pool(jobs, scheduler)
