@@ -24,6 +24,7 @@ from structbench.models.input_text import read_input_text
 
 from .campaign_size import Budget, CampaignSize
 from .prior import PriorSpec, damage_parameters, read_prior
+from .fmu_options import FmuOptions, read_fmu_options
 from .external import BUILTIN, PLACEHOLDERS, QUANTITY_KEYS, VariableMap, closest, fmu_variables, pattern_fields
 from .test_entries import TEST_KEYS, TestReader, TestSpec
 from .toml_lines import Path as KeyPath
@@ -33,7 +34,8 @@ from .toml_table import CampaignError, Table, key_error
 __all__ = ["Campaign", "CampaignError", "TestSpec", "load_campaign"]
 
 TOP_KEYS = ("name", "description", "structure", "seed", "parameters", "mapping", "locations",
-            "truth", "check", "limits", "defaults", "tests", "prior", "damage")
+            "truth", "check", "limits", "defaults", "tests", "prior", "damage",
+            "interface", "substeps", "solver")
 
 
 @dataclass(frozen=True)
@@ -59,6 +61,7 @@ class Campaign:
     true_model: Model | None = field(default=None, repr=False, compare=False)
     size: CampaignSize = field(default_factory=CampaignSize, compare=False)  # what a run writes and simulates
     prior: PriorSpec | None = field(default=None, compare=False)  # [prior] (prior.py)
+    fmu_options: FmuOptions = field(default_factory=FmuOptions, compare=False)  # interface, substeps, [solver]
 
     def location(self, node: int) -> tuple[float, float, float]:
         """Node coordinates (m), padded to 3; NaN when unknown."""
@@ -242,7 +245,8 @@ def load_campaign(path: str | Path) -> Campaign:
     tests = reader.tests(model, locations, mapping, seed, budget)
     campaign = Campaign(name, path, text, structure, model, fmu, tests, parameters, mapping, locations, truth,
                         check, seed, tuple(reader.variables), reader.lines,
-                        with_parameters(model, parameters) if model is not None else None, budget.size, prior)
+                        with_parameters(model, parameters) if model is not None else None, budget.size, prior,
+                        read_fmu_options(top, fmu))
     if fmu is not None:
         campaign.check_variables(fmu_variables(fmu), fmu.name)
     return campaign
