@@ -74,6 +74,7 @@ class CampaignStatus:
     tests: dict[str, TestStatus]
     started: str = field(default_factory=_now)
     skipped: int = 0  # tests complete before this run
+    warnings: list[dict[str, Any]] = field(default_factory=list)  # step check (step_check.py): test, channel, message
 
     def count(self, state: str) -> int:
         return sum(t.state == state for t in self.tests.values())
@@ -86,6 +87,7 @@ class CampaignStatus:
         return {"format": STATUS_FORMAT, "campaign": self.campaign, "structure": self.structure,
                 "fmu": self.fmu, "fmu_sha256": self.fmu_sha256, "started": self.started, "updated": _now(),
                 "summary": {s: self.count(s) for s in ("done", "failed", "pending")} | {"skipped": self.skipped},
+                "warnings": self.warnings,
                 "tests": {name: t.to_json() for name, t in self.tests.items()}}
 
 

@@ -52,7 +52,8 @@ def _fmu_file(bench: Bench, blob: bytes | None) -> str:
 def _rig(bench: Bench, blob: bytes | None) -> Rig:
     """This worker's FMU instance for ``bench``, opened on first use and kept
     (reset between tests) until a campaign with another set-up comes."""
-    key = (bench.fmu_sha256, tuple(sorted(bench.parameters.items())))
+    key = (bench.fmu_sha256, tuple(sorted(bench.parameters.items())), bench.options.interface,
+           bench.options.relative_tolerance)
     if getattr(_LOCAL, "key", None) != key:
         old = getattr(_LOCAL, "rig", None)
         if old is not None:
