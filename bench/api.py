@@ -113,16 +113,20 @@ def list_traces(folder: str | Path) -> dict[str, Any]:
 def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None = None,
              groups: Sequence[str] | None = None, tests: Sequence[str] | None = None, joint: bool = False,
              tag: str | None = None, progress: Callable[[int, int], None] | None = None,
-             jobs: int | None = None, **options: Any) -> dict[str, Any]:
+             jobs: int | None = None, prior: str | Path | None = None, **options: Any) -> dict[str, Any]:
     """Identify every run of a campaign folder with ``method`` (see
     :func:`methods`, plugins included; its options as keywords, e.g.
     ``samples=8``) and write ``results/<method>[-<tag>].json``; returns that
     document (docs/results-format.md). ``progress`` receives (runs done, runs
     in all) after every run; ``jobs`` processes identify runs in parallel
-    (default: one per available core; 1: in this process), with the same results."""
+    (default: one per available core; 1: in this process), with the same results.
+    ``prior``: the starting model of updating and perturbation (a built-in
+    name, TOML model, ``prior.json`` or results file whose parameter values
+    are set on the structure); default the campaign's ``[prior]``
+    (``DIR/prior.json``), else the ``-postulated`` variant; never the truth."""
     from structbench.dispatch.runs import identify_folder
     document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
-                                  groups, tests, joint, tag, options, progress, jobs)
+                                  groups, tests, joint, tag, options, progress, jobs, prior)
     return document
 
 

@@ -151,3 +151,68 @@ def test_no_import_cycles():
         if name not in state:
             visit(name, [name])
     assert not cycles
+
+
+GARBAGE_CAMPAIGN = """name = "frame-prior"
+structure = "frame.toml"
+seed = 7
+
+[prior]
+scale = [0.5, 2.0]
+seed = 11
+
+[[tests]]
+name = "random"
+dt = 0.01
+duration = 60.0
+sensors = [{nodes = [1, 2, 3], dirs = ["x"], quantities = ["displacement", "velocity", "acceleration"]},
+           {nodes = [3], dirs = ["x"], quantities = ["force"]}]
+noise = {sensor = 0.01}
+[[tests.excitation]]
+kind = "random"
+node = 3
+dir = "x"
+rms = 1000.0
+band = [0.5, 100.0]
+"""
+
+
+def test_identification_never_reads_the_true_values(tmp_path):
+    """Issue 23: the same results (least squares from the topology, modal,
+    updating from the campaign's [prior]) when the stored true values -
+    truth.json and the values of the TOML model the traces name - are
+    replaced by garbage afterwards. Before the prior, updating started from
+    the structure's own (true) values and its results changed."""
+    import json
+    import re
+
+    import numpy as np
+    import structbench as sb
+
+    frame = (ROOT / "docs" / "examples" / "shear-frame-3.toml").read_text()
+    (tmp_path / "frame.toml").write_text(frame)
+    (tmp_path / "camp.toml").write_text(GARBAGE_CAMPAIGN)
+    out = tmp_path / "out"
+    assert sb.run_campaign(tmp_path / "camp.toml", out, jobs=0).failed == 0
+    assert (out / "prior.json").is_file()
+
+    def identify_all() -> dict[str, list]:
+        docs = {"least-squares": sb.identify(out, "least-squares", jobs=1),
+                "modal": sb.identify(out, "modal", jobs=1, quantity="displacement")}
+        docs["updating"] = sb.identify(out, "updating", jobs=1)
+        return {k: d["runs"] for k, d in docs.items()}
+
+    before = identify_all()
+    rng = np.random.default_rng(0)
+    garbage = re.sub(r"^(\s*[mkc] = )[0-9.e+]+", lambda m: f"{m.group(1)}{rng.uniform(1, 1e7):.6e}", frame,
+                     flags=re.M)
+    assert garbage != frame
+    (tmp_path / "frame.toml").write_text(garbage)
+    truth = json.loads((out / "truth.json").read_text())
+    for p in truth["parameters"]:
+        p["value"] = float(rng.uniform(1, 1e7))
+    (out / "truth.json").write_text(json.dumps(truth))
+    after = identify_all()
+    for method in before:
+        assert json.dumps(before[method]) == json.dumps(after[method]), method
+    assert before["updating"][0]["parameters"][0]["initial"] != truth["parameters"][0]["value"]

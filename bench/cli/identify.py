@@ -15,7 +15,8 @@ from structbench import api
 
 from .progress import bar, interactive
 
-HELP = "identify parameters (least squares, perturbation) or modes (Rayleigh, modal) from a campaign's traces"
+HELP = ("identify parameters (least squares, perturbation, updating) or modes (Rayleigh, modal) from a "
+        "campaign's traces")
 
 # The built-in methods' help, defaults and choices as api.methods() has them
 # (tests/test_cli_startup.py holds the two equal): --help shows them without
@@ -41,6 +42,12 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
          "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
         {"quantity": ("auto", "displacement", "velocity", "acceleration"), "refine": ("auto", "off"),
          "uncertainty": ("jackknife", "off")}),
+    "updating": (
+        "finite-element model updating from identified modes (a modal results or modal-data file, "
+        "--option modal=FILE) starting from the model given as the prior",
+        {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3, "seed": 0,
+         "regularisation": "auto", "rank_tol": 1e-06, "shape_std": None, "modes": None, "parameters": None,
+         "max_nfev": 200, "tol": 1e-10}, {}),
 }
 PLUGIN_GROUP = "structbench.identifiers"  # docs/plugins.md
 
@@ -66,8 +73,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="; ".join([f"{name}: {about[0]}" for name, about in BUILTIN.items()]
                                        + [f"{name}: plugin (docs/plugins.md)" for name in plugins]))
     parser.add_argument("--model", metavar="NAME_OR_TOML",
-                        help="model with the unknown parameters (default: the traces' structure; for the "
-                             "perturbation method its '-postulated' variant when there is one)")
+                        help="model with the unknown parameters, values and all (default: the traces' "
+                             "structure's topology, never its values)")
+    parser.add_argument("--prior", metavar="MODEL_OR_JSON",
+                        help="starting model of updating and perturbation: a built-in name or TOML model, or a "
+                             "prior.json or results file (e.g. a baseline's results/updating.json) whose parameter "
+                             "values are set on the structure (default: the campaign's [prior], DIR/prior.json, "
+                             "else the structure's '-postulated' variant)")
     parser.add_argument("--group", action="append", metavar="NAME",
                         help="only this test group (repeatable; default: every group)")
     parser.add_argument("--test", action="append", metavar="PATTERN",
@@ -177,8 +189,8 @@ def run(args: argparse.Namespace) -> int:
         shown.refresh()
 
     try:
-        document = api.identify(args.campaign_dir, args.method, model=args.model, groups=args.group,
-                                tests=args.test, joint=args.joint, tag=args.tag,
+        document = api.identify(args.campaign_dir, args.method, model=args.model, prior=args.prior,
+                                groups=args.group, tests=args.test, joint=args.joint, tag=args.tag,
                                 progress=progress if shown is not None else None, jobs=args.jobs,
                                 **options(args))
     finally:

@@ -29,8 +29,11 @@ class Method:
     """An identification method: ``call(traces, model, **options)``;
     ``defaults`` lists every option it takes, ``choices`` the allowed values
     of some; ``model``: "required",
-    "optional" or "none"; ``postulated``: start from the structure's
-    ``-postulated`` variant when there is one."""
+    "optional" or "none"; ``postulated``: the method starts from a prior
+    (starting values): without ``--prior``/``prior=``/a campaign ``[prior]``
+    it gets the structure's ``-postulated`` variant when there is one, else
+    an error (never the traces' structure's values, the truth); the others
+    get the structure's topology (runs.resolve_prior)."""
 
     name: str
     call: Callable[..., Identification]
@@ -78,7 +81,7 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            model="optional"),
     Method("updating", updating.identify, dict(updating.DEFAULTS),
            "finite-element model updating from identified modes (a modal results or modal-data file, "
-           "--option modal=FILE) starting from the model given as the prior"),
+           "--option modal=FILE) starting from the model given as the prior", postulated=True),
 )}
 
 
