@@ -10,7 +10,10 @@ FMI 2.0 co-simulation FMUs run through a tight loop of ctypes calls
 ``fmi2SetReal`` only when ``forces[k]`` differs from ``forces[k - 1]``, since
 an FMU keeps its inputs until they are set again);
 FMI 3.0 co-simulation through fmpy's ``FMU3Slave``; model exchange through
-``fmpy.simulate_fmu`` with a zero-order-hold input table. FMU logging is on
+``fmpy.simulate_fmu`` (CVode) with a zero-order-hold input table. An FMU that
+offers both runs as co-simulation unless ``interface="model-exchange"``;
+``substeps`` splits each co-simulation step into that many ``doStep`` calls
+with the inputs held. FMU logging is on
 and every message is forwarded to ``log``; a call returning discard, error or
 fatal raises :class:`FmuError` carrying the FMU's error messages.
 """
@@ -73,8 +76,14 @@ class FmuSession:
     """
 
     def __init__(self, path: str | Path, instance_name: str = "structbench",
-                 log: Callable[[str], None] | None = None):
+                 log: Callable[[str], None] | None = None, interface: str | None = None,
+                 relative_tolerance: float = 1e-10):
+        """``interface``: ``"co-simulation"``, ``"model-exchange"`` or None (co-simulation
+        when offered); ``relative_tolerance``: CVode's, for model exchange.
+        Raises :class:`UserError` when the FMU does not offer the interface."""
         self.path = Path(path)
+        self.interface = interface
+        self.relative_tolerance = relative_tolerance
         if not self.path.is_file():
             raise UserError("no such FMU file", field=str(path))
         self.instance_name = instance_name
@@ -104,12 +113,18 @@ class FmuSession:
     def _new_backend(self) -> Backend:
         """The backend of this FMU's FMI flavour (loads its shared library)."""
         md = self.model_description
-        if md.fmiVersion == "2.0" and md.coSimulation is not None:
-            return Fmi2CoSimulation(self)
-        if md.fmiVersion.startswith("3.") and md.coSimulation is not None:
-            return Fmi3CoSimulation(self)
+        if self.interface not in (None, "co-simulation", "model-exchange"):
+            raise UserError(f"unknown interface {self.interface!r}", field="interface")
+        wanted = {"co-simulation": md.coSimulation, "model-exchange": md.modelExchange}.get(self.interface, True)
+        if wanted is None:
+            raise UserError(f"the FMU offers no {self.interface}", field=self.path.name)
+        if self.interface != "model-exchange" and md.coSimulation is not None:
+            if md.fmiVersion == "2.0":
+                return Fmi2CoSimulation(self)
+            if md.fmiVersion.startswith("3."):
+                return Fmi3CoSimulation(self)
         if md.modelExchange is not None:
-            return ModelExchange(self)
+            return ModelExchange(self, self.relative_tolerance)
         raise UserError(f"unsupported FMU: FMI {md.fmiVersion} without co-simulation or model exchange",
                         field=self.path.name)
 
@@ -206,13 +221,17 @@ class FmuSession:
         self._state = "instantiated"
 
     def run(self, inputs: Sequence[str], outputs: Sequence[str], forces: np.ndarray, dt: float,
-            start_time: float = 0.0) -> np.ndarray:
+            start_time: float = 0.0, substeps: int = 1) -> np.ndarray:
         """Response to a force history.
 
         ``forces`` has shape (n_steps, len(inputs)) in the inputs' units, held
         over each step of ``dt`` s; returns shape (n_steps, len(outputs)),
         row k sampled at ``t_k = start_time + k dt`` with ``forces[k]`` applied.
+        ``substeps``: co-simulation ``doStep`` calls of ``dt / substeps`` s per
+        step (model exchange: ignored, CVode chooses its steps).
         """
+        if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
+            raise UserError(f"substeps must be a positive integer, got {substeps!r}", field="substeps")
         forces = np.ascontiguousarray(forces, dtype=np.float64)
         if forces.ndim != 2 or forces.shape[1] != len(inputs):
             raise UserError(f"forces must have shape (n_steps, {len(inputs)}), got {forces.shape}",
@@ -232,7 +251,7 @@ class FmuSession:
             self._state = "running"
             self._backend.start(start_time)
             self.check_log("initialization")
-        self._backend.loop(in_refs, out_refs, forces, dt, start_time, out)
+        self._backend.loop(in_refs, out_refs, forces, dt, start_time, out, int(substeps))
         self._time = start_time + forces.shape[0] * dt
         self.check_log("run")
         return out

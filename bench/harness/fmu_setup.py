@@ -17,6 +17,7 @@ from structbench.models import ModalModel
 from .campaign import Campaign
 from .excitation import Excitation, Impulse, Initial
 from .external import BUILTIN, VariableMap, fmu_variables
+from .fmu_options import FmuOptions
 from .fmu_session import fmu_checksum
 
 
@@ -26,7 +27,8 @@ class Bench:
 
     ``impulse_states`` maps a DOF to the initial-condition variables (and
     their values per N s) of a unit impulse there, for ``initial-velocity``
-    impulses; ``locations`` maps node ids to coordinates (m).
+    impulses; ``locations`` maps node ids to coordinates (m); ``options``:
+    the interface, substeps and solver tolerance the FMU runs with.
     """
 
     campaign: str
@@ -37,6 +39,7 @@ class Bench:
     mapping: VariableMap
     locations: Mapping[int, tuple[float, float, float]]
     impulse_states: Mapping[tuple[int, str], Mapping[str, float]] = field(default_factory=dict)
+    options: FmuOptions = field(default_factory=FmuOptions)
 
     @property
     def fmu_name(self) -> str:
@@ -88,4 +91,4 @@ def prepare_fmu(campaign: Campaign, fmu_dir: str | Path) -> Bench:
         i.node for t in campaign.tests for i in t.excitation}
     return Bench(campaign.name, campaign.structure, str(fmu), fmu_checksum(fmu), dict(campaign.parameters),
                  campaign.mapping, {n: campaign.location(n) for n in sorted(nodes)},
-                 impulse_states(campaign) if campaign.model is not None else {})
+                 impulse_states(campaign) if campaign.model is not None else {}, campaign.fmu_options)

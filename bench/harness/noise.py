@@ -59,13 +59,28 @@ def channel_rng(seed: int, channel: str) -> np.random.Generator:
 
 
 def with_sensor_noise(signal: np.ndarray, ratio: float, mode: str, rng: np.random.Generator) -> np.ndarray:
-    """``signal`` (n,) plus Gaussian noise at noise-to-signal ``ratio``."""
+    """``signal`` (n,) plus Gaussian noise at noise-to-signal ``ratio``.
+
+    The RMS is taken of ``signal / max|signal|`` and scaled back, so no finite
+    signal overflows (no RuntimeWarning); a non-finite signal gives a
+    non-finite result, which the harness refuses to write."""
     if ratio == 0:
         return signal.copy()
     z = rng.standard_normal(signal.shape)
     if mode == "proportional":
         return signal + ratio * np.abs(signal) * z
-    return signal + ratio * np.sqrt(np.mean(signal**2)) * z
+    return signal + ratio * rms(signal) * z
+
+
+def rms(signal: np.ndarray) -> float:
+    """Root mean square of ``signal`` (n,), without overflow for any finite
+    samples (``max|x| sqrt(mean((x / max|x|)^2))``); NaN when one is not finite."""
+    scale = float(np.max(np.abs(signal))) if signal.size else 0.0
+    if not np.isfinite(scale):
+        return float("nan")
+    if scale == 0.0:
+        return 0.0
+    return scale * float(np.sqrt(np.mean((signal / scale) ** 2)))
 
 
 def noisy_channels(clean: Mapping[str, np.ndarray], ratios: Mapping[str, float], mode: str,

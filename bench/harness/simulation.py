@@ -19,12 +19,9 @@ from structbench.models.channels import Channel
 from .excitation import Excitation, Harmonic, force_dofs, forces, kind_label, spec
 from .fmu_setup import Bench
 from .noise import noisy_channels
+from .output_check import SimulationError, check_output, first_bad  # noqa: F401 - SimulationError re-exported
 from .test_entries import TestSpec
 from .trace_writer import ChannelData, Trace, trace_bytes, write_atomic
-
-
-class SimulationError(RuntimeError):
-    """A simulation produced unusable output (NaN or infinity)."""
 
 
 @dataclass(frozen=True)
@@ -52,25 +49,28 @@ class Outcome:
 
 class Rig:
     """One FMU instance set up for a campaign: its parameters are set once,
-    initial conditions per run (those of earlier runs back to zero)."""
+    initial conditions per run (those of earlier runs back to zero); the
+    interface and solver tolerance of ``bench.options``."""
 
     def __init__(self, bench: Bench):
         from .fmu_session import FmuSession  # imported lazily: workers only
 
-        self.session = FmuSession(bench.fmu)
+        self.session = FmuSession(bench.fmu, interface=bench.options.interface,
+                                  relative_tolerance=bench.options.relative_tolerance)
         if bench.parameters:
             self.session.set_parameters(dict(bench.parameters))
         self.touched: set[str] = set()
 
     def run(self, inputs: list[str], outputs: list[str], force: np.ndarray, step: float,
-            initial: Mapping[str, float]) -> np.ndarray:
-        """(n_steps, len(outputs)) from a fresh start with ``initial`` set."""
+            initial: Mapping[str, float], substeps: int = 1) -> np.ndarray:
+        """(n_steps, len(outputs)) from a fresh start with ``initial`` set,
+        ``substeps`` FMU steps per communication step of ``step`` s."""
         values = {name: 0.0 for name in self.touched} | dict(initial)
         self.session.reset()
         if values:
             self.session.set_parameters(values)
         self.touched |= set(initial)
-        return self.session.run(inputs, outputs, force, step)
+        return self.session.run(inputs, outputs, force, step, substeps=substeps)
 
     def close(self) -> None:
         self.session.close()
@@ -90,7 +90,9 @@ def commanded(test: TestSpec, items: tuple[Excitation, ...]) -> dict[str, np.nda
 
 
 def simulate(rig: Rig, bench: Bench, test: TestSpec, repetition: int) -> Record:
-    """Run a repetition's applied excitation and sample every channel."""
+    """Run a repetition's applied excitation and sample every channel; raises
+    :class:`SimulationError` when an output is not finite or diverges
+    (:mod:`.output_check`), before any noise is added."""
     items = test.applied_excitation(repetition)
     mapping = bench.mapping
     dofs = force_dofs(items)
@@ -98,14 +100,11 @@ def simulate(rig: Rig, bench: Bench, test: TestSpec, repetition: int) -> Record:
     motion = [c for c in test.channels if c.quantity != "force"]
     y = rig.run([mapping.variable("force", *d) for d in dofs],
                 [mapping.variable(c.quantity, c.node, c.direction) for c in motion],
-                force, test.step, bench.initial_values(items))[::test.substeps]
+                force, test.step, bench.initial_values(items), bench.options.substeps)[::test.substeps]
     felt = force[::test.substeps]
     signals = {c.name: y[:, j] for j, c in enumerate(motion)}
+    check_output(signals, felt, test.dt)
     signals |= {c.name: felt[:, dofs.index(c.dof)] for c in test.channels if c.quantity == "force"}
-    for name, x in signals.items():
-        bad = np.flatnonzero(~np.isfinite(x))
-        if bad.size:
-            raise SimulationError(f"{name} is {x[bad[0]]} at t = {bad[0] * test.dt:.9g} s")
     return Record(np.arange(test.n_samples) * test.dt, {c.name: signals[c.name] for c in test.channels},
                   commanded(test, test.commanded_excitation(repetition)))
 
@@ -132,6 +131,8 @@ def make_trace(bench: Bench, test: TestSpec, repetition: int, record: Record) ->
     mode = test.noise.mode
     ratios = {c.name: test.noise.ratio(c.quantity) for c in test.channels}
     noisy = noisy_channels(record.signals, ratios, mode, seed)
+    for name, x in noisy.items():  # never a trace with a non-finite sample
+        first_bad(f"{test.trace_name(repetition)}: {name}", x, test.dt)
     channels = tuple(ChannelData(c, noisy[c.name], bench.locations[c.node], ratios[c.name], mode)
                      for c in test.channels)
     excitation = tuple(ChannelData(Channel("force", *d), record.commanded[Channel("force", *d).name],
