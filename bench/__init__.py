@@ -20,13 +20,13 @@ from typing import TYPE_CHECKING, Any
 
 __all__ = ["BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
            "export_modes", "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods",
-           "model_geometry", "modes", "plot_modes", "reproduce", "reproduce_table", "results_file", "run_campaign",
-           "score", "write_junit"]
+           "model_geometry", "modes", "plan", "plot_modes", "reproduce", "reproduce_table", "results_file",
+           "run_campaign", "score", "write_junit"]
 
 if TYPE_CHECKING:  # what static checkers see; at run time __getattr__ loads these
     from .api import (BuiltFmu, Campaign, CampaignStatus, Method, UserError, build_fmus, check, export_modes,
                       export_traces, frf, identify, import_data, list_traces, load_campaign, methods, model_geometry,
-                      modes, plot_modes, reproduce, reproduce_table, results_file, run_campaign, score, write_junit)
+                      modes, plan, plot_modes, reproduce, reproduce_table, results_file, run_campaign, score, write_junit)
 
 
 def __getattr__(name: str) -> Any:

@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 __all__ = ["DISSERTATION", "BuiltFmu", "Campaign", "CampaignStatus", "Method", "UserError", "build_fmus", "check",
            "export_modes", "export_traces", "frf", "identify", "import_data", "list_traces", "load_campaign", "methods",
-           "model_geometry", "modes", "plot_modes", "reproduce", "reproduce_table", "results_file", "run_campaign",
-           "score", "write_junit"]
+           "model_geometry", "modes", "plan", "plot_modes", "reproduce", "reproduce_table", "results_file",
+           "run_campaign", "score", "write_junit"]
 
 # Names this module passes on from the subpackages, imported on first use
 # (module __getattr__): each call below imports what it needs when it runs,
@@ -81,6 +81,17 @@ def modes(structure: str | Path, count: int = 10) -> dict[str, Any]:
     return {"structure": model.name, "n_dof": model.n_dof,
             "omega": [float(w) for w in m.omega], "lambda": [float(v) for v in m.lam],
             "kind": "modal" if modal else "finite-element", "n_modes": model.n_modes if modal else model.n_dof}
+
+
+def plan(campaign: str | Path, method: str, **options: Any) -> dict[str, Any]:
+    """Plan a test before running it (docs/plan.md): the predicted standard
+    errors (Cramer-Rao bounds) of what ``method`` (``least-squares``,
+    ``modal``) identifies from a campaign's test, on the campaign's model;
+    options ``model``, ``test``, ``candidates`` + ``sensors`` (a sensor
+    layout, written as a campaign file), ``verify`` (Monte Carlo
+    repetitions), ``seed``, ``jobs``, ``progress``. Returns the plan document."""
+    from structbench.planning import plan as make_plan
+    return make_plan(campaign, method, **options)
 
 
 def build_fmus(structures: Sequence[str | Path] | None = None, out: str | Path | None = None) -> list[BuiltFmu]:

@@ -50,7 +50,7 @@ def test_only_structbench_is_installed_at_top_level(venv):
                         "structbench/identifier/modal", "structbench/identifier/modal/close_pairs",
                         "structbench/identifier/modal/ssi", "structbench/identifier/perturbation",
                         "structbench/identifier/rayleigh", "structbench/identifier/updating", "structbench/labdata",
-                        "structbench/models"]
+                        "structbench/models", "structbench/planning"]
     assert sorted(p.name for p in (site / "structbench" / "campaigns").glob("*.toml")) == sorted(
         p.name for p in (ROOT / "campaigns").glob("*.toml"))
 

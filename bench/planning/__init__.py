@@ -1,0 +1,101 @@
+"""Test planning: predicted standard errors (Cramer-Rao bounds) of what a
+method will identify from a campaign's test, sensor layouts, and their
+Monte Carlo check (docs/plan.md).
+
+One module per job: :mod:`.response` (noise-free responses from the
+planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
+frequencies and damping), :mod:`.layouts` (effective independence and
+D-optimal sensor layouts), :mod:`.campaign_files` (the campaign files a
+plan writes), :mod:`.verify` (``--verify``), :mod:`.report` (the table).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structbench.models import Model, load_model
+from structbench.models.errors import UserError
+
+METHODS = ("least-squares", "modal")
+FORMAT = "structbench-plan"
+__all__ = ["METHODS", "plan"]
+
+
+def _chosen_tests(campaign, test: str | None):
+    groups = list(dict.fromkeys(t.group for t in campaign.tests))
+    name = test if test is not None else groups[0]
+    specs = [t for t in campaign.tests if t.group == name]
+    if not specs:
+        raise UserError(f"no test {name!r} in the campaign; tests: {', '.join(groups)}", field="--test")
+    return name, specs
+
+
+def _least_squares(model: Model, specs) -> dict[str, Any]:
+    from structbench.models import Structure
+    from .fisher import least_squares_covariance, motion
+    from .response import simulate_test
+    if not isinstance(model, Structure):
+        raise UserError(f"least squares needs a finite-element model; {model.name} is modal", field="--model")
+    labels, cov = least_squares_covariance(model, [motion(model, simulate_test(model, t)) for t in specs])
+    params = [p for p, keep in zip(model.parameters, model.kind_mask()) if keep]
+    std = np.sqrt(np.diag(cov))
+    return {"parameters": [{"label": lab, "unit": p.unit, "value": float(v), "predicted_std": float(s)}
+                           for lab, p, v, s in zip(labels, params, model.values[model.kind_mask()], std)]}
+
+
+def _modal(model: Model, specs) -> dict[str, Any]:
+    from .free_decay import free_decay_bounds
+    if len(specs) != 1:
+        raise UserError("modal planning takes one free-decay test (a group of one)", field="--test")
+    return free_decay_bounds(model, specs[0])
+
+
+def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, test: str | None = None,
+         candidates: str | Path | None = None, sensors: int | None = None, layout_out: str | Path | None = None,
+         verify: int = 0, seed: int = 0, verify_out: str | Path | None = None, jobs: int | None = None,
+         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """The plan document (docs/plan.md) of ``method`` on ``test`` (default: the
+    campaign's first test group) of ``campaign``: predicted standard errors
+    (``parameters``: ``{label, unit, value, predicted_std}``; ``modes``:
+    ``{omega, predicted_omega_std, zeta, predicted_zeta_std}``, SI). The planning
+    model is ``model`` or the campaign's structure with its ``[parameters]``.
+    With ``candidates`` and ``sensors`` (a budget K) also ``layout``: layouts by
+    effective independence and D-optimal design, the better one written as a
+    campaign file ``layout_out`` (default ``<campaign>-plan-<test>.toml``
+    beside the campaign) and planned on. ``verify`` > 0: that many Monte
+    Carlo repetitions (seed ``seed``) through the FMU and the method, ``verify``
+    holding predicted against achieved standard deviations."""
+    from structbench.harness.campaign import load_campaign
+    if method not in METHODS:
+        raise UserError(f"no planning for method {method!r}; methods: {', '.join(METHODS)}", field="--method")
+    if (candidates is None) != (sensors is None):
+        raise UserError("--candidates and --sensors go together", field="--sensors")
+    if verify < 0:
+        raise UserError("must be >= 0", field="--verify")
+    say = progress or (lambda line: None)
+    path = Path(campaign)
+    loaded = load_campaign(path)
+    planning = load_model(model) if model is not None else (loaded.true_model or loaded.model)
+    if planning is None:
+        raise UserError("an external FMU has no model to plan with: give --model", field="--model")
+    name, specs = _chosen_tests(loaded, test)
+    document: dict[str, Any] = {"format": FORMAT, "version": 1, "campaign": loaded.name, "method": method,
+                                "test": name, "model": planning.name, "parameters": [], "modes": []}
+    run_file = path
+    if candidates is not None:
+        from .layouts import plan_layout
+        document["layout"] = plan_layout(planning, specs, method, candidates, int(sensors), path, name,
+                                         layout_out)
+        run_file = Path(document["layout"]["campaign"])
+        loaded = load_campaign(run_file)
+        name, specs = _chosen_tests(loaded, name)
+        say(f"layout: {document['layout']['chosen']} layout written to {run_file}")
+    document |= (_least_squares if method == "least-squares" else _modal)(planning, specs)
+    if verify:
+        from .verify import verify as run_verify
+        document["verify"] = run_verify(run_file, name, method, verify, document,
+                                        model=model, seed=seed, out=verify_out, jobs=jobs, progress=say)
+    return document

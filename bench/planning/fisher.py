@@ -1,0 +1,109 @@
+"""Predicted standard errors of the least-squares element parameters.
+
+The regression of :mod:`structbench.identifier.least_squares.regression`:
+at sample ``k`` the equation errors ``e_k = B_k p_u - y_k`` (n,) N, with
+``B_k`` (n, q) the columns ``dM_j a_k``, ``dC_j v_k``, ``dK_j u_k`` of the
+unknown parameters. Built from the *noise-free* simulated responses
+(:mod:`.response`), with the channel noise of the campaign
+(``sigma^2`` per channel, 4 n channels ``[a, v, u, f]``), the equation errors
+of one sample have the covariance
+
+    S = Mt^T diag(sigma^2) Mt    (n, n),   e_k = Mt^T x_k  at the true theta,
+
+and the regression's Fisher information (Gaussian, white in time) is
+
+    F = sum_k B_k^T S^-1 B_k      (q, q),     Cov(p_u) >= F^-1  (Cramer-Rao),
+
+which is the first-order covariance of the identifier's noise-whitened,
+bias-compensated estimator (the sandwich collapses to ``F^-1`` when its
+weighting is ``S^-1``). Above :data:`DENSE_DOF` DOF the identifier weights
+each DOF row by ``w_r = 1 / sqrt(S_rr)``; the prediction then is the
+``H^-1``, ``H = sum_k B_k^T W B_k`` (the sandwich with ``diag(S)``: the
+coupling of the rows' errors through ``M`` is neglected there).
+
+Assumptions: noise zero-mean, white, independent between channels, and (in
+``proportional`` mode) replaced by its time average as the identifier's
+weighting does; second-order noise terms (``sigma^4``) neglected, which
+holds while the noise-to-signal ratios are small (say < 10 %). Fails
+(:class:`UserError`) when the parameters are not identifiable (singular
+``F``) or a DOF lacks an acceleration, velocity or displacement channel.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as la
+
+from structbench.identifier.least_squares import Motion
+from structbench.identifier.least_squares import whitened
+from structbench.identifier.least_squares.regression import DENSE_DOF, error_variance, gram, layout, moments
+from structbench.models import Structure
+from structbench.models.errors import UserError
+
+from .response import Response
+
+RESPONSES = ("acceleration", "velocity", "displacement")
+
+
+def motion(model: Structure, response: Response) -> Motion:
+    """The noise-free :class:`Motion` (every sample) with the channels' noise
+    sigma; a response quantity missing at some DOF raises :class:`UserError`."""
+    m, n = response.time.size, model.n_dof
+    data = {q: np.zeros((m, n)) for q in (*RESPONSES, "force")}
+    sigma = {q: np.zeros((m, n)) for q in data}
+    seen = {q: set() for q in data}
+    for c in response.channels:
+        j = model.dof_index(*c.dof)
+        data[c.quantity][:, j] += response.signals[c.name]
+        sigma[c.quantity][:, j] = np.hypot(sigma[c.quantity][:, j], response.sigma[c.name])
+        seen[c.quantity].add(j)
+    for q in RESPONSES:
+        if len(seen[q]) != n:
+            missing = [model.dofs[j] for j in range(n) if j not in seen[q]][:3]
+            raise UserError(f"least-squares planning needs the {q} of every DOF (the identifier's measured "
+                            f"set-up); missing at {', '.join(f'{a}{b}' for a, b in missing)}", field="sensors")
+    if not seen["force"]:
+        raise UserError("least-squares planning needs a force channel (load cell) where the force acts",
+                        field="sensors")
+    return Motion(response.time, data["displacement"], data["velocity"], data["acceleration"], data["force"],
+                  sigma)
+
+
+def least_squares_covariance(model: Structure, motions: list[Motion]) -> tuple[list[str], np.ndarray]:
+    """Labels and predicted covariance (q, q) of the unknown parameters
+    (``model.kind_mask()``) from the noise-free ``motions`` of one run (SI units squared)."""
+    mask = model.kind_mask()
+    u = np.flatnonzero(mask)
+    labels = [p.label for p, keep in zip(model.parameters, mask) if keep]
+    theta = np.append(model.values, -1.0)
+    lay = layout(model)
+    total = Motion.stack(motions)
+    if model.n_dof <= DENSE_DOF:
+        mom = moments(lay, total, raw_gram=True)
+        S = whitened.error_covariance(lay, mom.noise / mom.samples, theta)
+        if not np.any(S):
+            raise UserError("the campaign's test has no sensor noise: the standard errors are zero",
+                            field="noise")
+        S[np.diag_indices_from(S)] += 1e-12 * np.trace(S) / S.shape[0]
+        G, _ = whitened.gram(lay, mom.raw_gram, mom.noise, la.inv(S))
+        H = G.toarray()[np.ix_(u, u)]
+    else:
+        mom = moments(lay, total)
+        var = error_variance(lay, mom, theta)
+        if not np.any(var):
+            raise UserError("the campaign's test has no sensor noise: the standard errors are zero",
+                            field="noise")
+        w = 1.0 / np.sqrt(var + 1e-12 * var.mean())
+        G, _ = gram(lay, mom, w)
+        H = G.toarray()[np.ix_(u, u)]
+    scale = np.sqrt(np.abs(np.diag(H)))
+    if np.any(scale == 0):
+        bad = [labels[i] for i in np.flatnonzero(scale == 0)]
+        raise UserError(f"not identifiable from this test (not excited): {', '.join(bad[:5])}", field="excitation")
+    Hs = H / np.outer(scale, scale)
+    eig = la.eigvalsh(Hs)
+    if eig[0] <= 1e-14 * eig[-1]:
+        raise UserError("the parameters are not identifiable from this test (singular Fisher information, "
+                        f"condition {eig[-1] / max(eig[0], 1e-300):.3g})", field="excitation")
+    Hinv = la.inv(Hs) / np.outer(scale, scale)
+    return labels, Hinv
+

@@ -1,0 +1,155 @@
+"""structbench plan: predicted standard errors against closed forms and Monte Carlo."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.optimize as opt
+
+import structbench as sb
+from structbench.cli.main import main
+from structbench.planning import free_decay as fd
+
+CHAIN = """name = "chain-{n}"
+unknown = ["mass", "stiffness"]
+[[nodes]]
+id = 0
+x = 0.0
+{nodes}
+[[supports]]
+node = 0
+fix = ["x"]
+{elements}
+"""
+
+
+def chain_model(path: Path, masses: list[float], springs: list[float]) -> Path:
+    """A spring-mass chain fixed at node 0 (kg, N/m) as a TOML model."""
+    nodes = "\n".join(f"[[nodes]]\nid = {i + 1}\nx = {i + 1.0}" for i in range(len(masses)))
+    els = [f'[[elements]]\ntype = "mass"\nnodes = [{i + 1}]\ndir = "x"\nm = {m}' for i, m in enumerate(masses)]
+    els += [f'[[elements]]\ntype = "spring"\nnodes = [{i}, {i + 1}]\ndir = "x"\nk = {k}' for i, k in enumerate(springs)]
+    path.write_text(CHAIN.format(n=len(masses), nodes=nodes, elements="\n".join(els)))
+    return path
+
+
+def harmonic_campaign(path: Path, model: Path, dt: float, duration: float, omega: float,
+                      repetitions: int = 1) -> Path:
+    path.write_text(f"""name = "plan-test"
+structure = "{model.name}"
+seed = 5
+[[tests]]
+name = "sine"
+dt = {dt}
+duration = {duration}
+repetitions = {repetitions}
+noise = {{sensor = {{acceleration = 0.02, force = 0.02}}}}
+[[tests.excitation]]
+kind = "harmonic"
+node = 1
+dir = "x"
+amplitude = 1.0
+omega = {omega}
+[[tests.sensors]]
+nodes = "all"
+quantities = ["acceleration", "velocity", "displacement"]
+[[tests.sensors]]
+nodes = [1]
+dirs = ["x"]
+quantities = ["force"]
+""")
+    return path
+
+
+def test_least_squares_one_dof_closed_form(tmp_path: Path) -> None:
+    """One mass on a spring: F = [sum a^2, sum a u; sum a u, sum u^2] / (m^2 sa^2 + sf^2)."""
+    m, k, f0, w, dt, T = 2.0, 50.0, 1.0, 3.0, 0.01, 10.0
+    model = chain_model(tmp_path / "one.toml", [m], [k])
+    doc = sb.plan(harmonic_campaign(tmp_path / "c.toml", model, dt, T, w), "least-squares")
+    t = np.arange(round(T / dt) + 1) * dt
+    wn = np.sqrt(k / m)
+    u = f0 / (k - m * w**2) * (np.cos(w * t) - np.cos(wn * t))  # from rest, continuous force
+    a = f0 / (k - m * w**2) * (-w**2 * np.cos(w * t) + wn**2 * np.cos(wn * t))
+    f = f0 * np.cos(w * t)
+    var_e = m**2 * (0.02 * np.sqrt(np.mean(a**2)))**2 + (0.02 * np.sqrt(np.mean(f**2)))**2
+    F = np.array([[a @ a, a @ u], [a @ u, u @ u]]) / var_e
+    expected = np.sqrt(np.diag(np.linalg.inv(F)))
+    got = {p["label"]: p["predicted_std"] for p in doc["parameters"]}
+    assert list(got) == ["mass[1]", "stiffness[2]"]
+    np.testing.assert_allclose([got["mass[1]"], got["stiffness[2]"]], expected, rtol=0.03)
+
+
+def test_least_squares_verify_three_dof(tmp_path: Path) -> None:
+    """Predicted against 40 Monte Carlo runs through the FMU and the identifier."""
+    model = chain_model(tmp_path / "three.toml", [1.0, 1.5, 0.8], [40.0, 30.0, 25.0])
+    campaign = harmonic_campaign(tmp_path / "c.toml", model, 0.005, 4.0, 2.0)
+    doc = sb.plan(campaign, "least-squares", verify=40, seed=11, jobs=1)
+    ver = doc["verify"]
+    assert ver["runs"] == 40 and len(ver["parameters"]) == 6
+    ratios = np.array([p["ratio"] for p in ver["parameters"]])
+    assert 0.8 < np.median(ratios) < 1.25, ratios  # sample std of 40 runs: +-11 % (1 s.e.) per quantity
+    assert np.all((ratios > 0.6) & (ratios < 1.5)), ratios
+
+
+def test_modal_bound_undamped_sinusoid_closed_form() -> None:
+    """A long, nearly undamped real sinusoid: var(omega) = 24 sigma^2 / (A^2 N^3 dt^2) (Kay 1993, eq. 3.41:
+    12 / (eta N (N^2 - 1)) rad^2/sample^2, eta = A^2 / (2 sigma^2)), the decay rate alpha the same, so
+    std(zeta) = std(alpha) / omega."""
+    w, dt, n, amp, ratio = 2.0, 0.05, 4000, 1.0, 0.1
+    d = fd.Decay(np.array([w]), np.array([1e-9]), np.array([0.0]), np.array([amp]), np.ones((1, 1)), dt, n)
+    beta = fd.amplitudes(d, np.array([0]), np.array([0]))
+    gram, Q = fd.bases(d)
+    sigma = fd.channel_sigma(beta, np.array([ratio]), gram)
+    cov = fd.omega_zeta_covariance(d, fd.channel_information(beta, sigma, Q).sum(axis=0))[0]
+    expected = np.sqrt(24.0 / n**3) * sigma[0] / (amp * dt)
+    np.testing.assert_allclose(sigma[0], ratio * amp / np.sqrt(2), rtol=1e-3)
+    np.testing.assert_allclose(np.sqrt(cov[0, 0]), expected, rtol=0.01)
+    np.testing.assert_allclose(np.sqrt(cov[1, 1]), expected / w, rtol=0.01)
+
+
+def test_modal_bound_two_damped_modes_monte_carlo() -> None:
+    """Two damped modes on two channels: the bound against 150 maximum-likelihood
+    fits (nonlinear least squares, an efficient estimator) of seeded noisy records."""
+    omega, zeta, dt, n = np.array([1.0, 2.7]), np.array([0.02, 0.03]), 0.1, 1500
+    shapes = np.array([[1.0, 0.8], [0.6, -1.0]])
+    d = fd.Decay(omega, zeta, np.zeros(2), np.array([1.0, 0.5]), shapes, dt, n)
+    rows, orders = np.array([0, 1]), np.array([0, 0])
+    beta = fd.amplitudes(d, rows, orders)
+    gram, Q = fd.bases(d)
+    sigma = fd.channel_sigma(beta, np.full(2, 0.05), gram)
+    cov = fd.omega_zeta_covariance(d, fd.channel_information(beta, sigma, Q).sum(axis=0))
+    t = np.arange(n) * dt
+
+    def signal(x: np.ndarray) -> np.ndarray:
+        w, z, amps = x[:2], x[2:4], x[4:].reshape(2, 2, 2)  # (channel, mode, cos/sin)
+        env = np.exp(-np.outer(t, z * w))
+        wd = w * np.sqrt(1 - z**2)
+        c, s = env * np.cos(np.outer(t, wd)), env * np.sin(np.outer(t, wd))
+        return np.stack([c @ amps[ch, :, 0] + s @ amps[ch, :, 1] for ch in range(2)])
+
+    truth = np.concatenate([omega, zeta, beta.ravel()])
+    clean = signal(truth)
+    rng = np.random.default_rng(20261126)
+    fits = []
+    for _ in range(150):
+        y = clean + sigma[:, None] * rng.standard_normal(clean.shape)
+        res = opt.least_squares(lambda x: ((signal(x) - y) / sigma[:, None]).ravel(), truth, method="lm")
+        fits.append(res.x[:4])
+    achieved = np.std(np.array(fits), axis=0, ddof=1)
+    predicted = np.concatenate([np.sqrt(cov[:, 0, 0]), np.sqrt(cov[:, 1, 1])])
+    np.testing.assert_allclose(achieved, predicted, rtol=0.2)  # 150 runs: +-6 % (1 s.e.)
+
+
+def test_cli_json_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    model = chain_model(tmp_path / "two.toml", [1.0, 2.0], [30.0, 20.0])
+    campaign = harmonic_campaign(tmp_path / "c.toml", model, 0.01, 4.0, 2.0)
+    assert main(["plan", str(campaign), "--method", "least-squares", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["format"] == "structbench-plan" and doc["test"] == "sine" and doc["modes"] == []
+    assert [p["label"] for p in doc["parameters"]] == ["mass[1]", "mass[2]", "stiffness[3]", "stiffness[4]"]
+    assert all(p["predicted_std"] > 0 for p in doc["parameters"])
+    assert main(["plan", str(campaign), "--method", "least-squares"]) == 0
+    assert "predicted std" in capsys.readouterr().out
+    assert main(["plan", str(campaign), "--method", "modal"]) == 2  # a harmonic test is no free decay
+    assert "free decay" in capsys.readouterr().err
