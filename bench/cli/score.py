@@ -68,6 +68,23 @@ def modal_lines(summary: dict[str, Any], runs: list[dict[str, Any]]) -> list[str
     return lines
 
 
+def damage_lines(damage: dict[str, Any]) -> list[str]:
+    """Text lines of the damage scores of an updating results file (evaluation/damage_scores.py)."""
+    s = damage["summary"]
+    lines = [f"  damage (|change| > {s['z_flag']:g} standard errors, change = value / prior - 1):"]
+    if "found" in s:
+        lines.append(f"    damaged {', '.join(damage['runs'][0]['declared'])} found in {s['found']} of {s['runs']} "
+                     f"runs; change error (pp) median "
+                     + ", ".join(f"{k} {v:+.2f}" for k, v in s["size_error_pp_median"].items())
+                     + "; falsely flagged: "
+                     + (", ".join(f"{k} in {v}" for k, v in sorted(s["false_flag_count"].items())) or "none"))
+    for i, r in enumerate(damage["runs"][:5]):
+        shown = ", ".join(f"{lab} {100 * r['change'][r['labels'].index(lab)]:+.1f} % "
+                          f"(+- {100 * r['change_std'][r['labels'].index(lab)]:.1f})" for lab in r["flagged"])
+        lines.append(f"    run {i}: flagged {shown or 'none'}")
+    return lines
+
+
 def lines(stem: str, score: dict[str, Any]) -> list[str]:
     """Text lines of one results file's scores."""
     s = score["summary"]
@@ -78,6 +95,8 @@ def lines(stem: str, score: dict[str, Any]) -> list[str]:
     if "rms_initial" in s:
         out.append(f"  starting model: median {s['rms_initial']['median']:.4g}; improved in "
                    f"{100 * s['improved_fraction']:.0f} % of runs; iterations {s['iterations']}")
+    if "damage" in score:  # updating from a baseline's results: what changed (evaluation/damage_scores.py)
+        out += damage_lines(score["damage"])
     if "found_fraction" in s:  # modal results, modes paired with the true ones
         return out + modal_lines(s, score["runs"])
     if s.get("freq_error_pct_median"):

@@ -182,6 +182,8 @@ def resolve_prior(name: str | None, traces: Sequence[Trace | TraceInfo], chosen:
         if doc is None:
             return load_model(given), {"source": str(prior)}
         model = load_model(name) if name is not None else _structure_model(structure, chosen, folder)
+        if model is None and chosen.model == "optional":
+            return None, {}
         if model is None:
             raise IdentificationError(f"{given}: the traces' structure {structure!r} is not a known model to set "
                                       "the prior's values on; give --model", field="--prior")

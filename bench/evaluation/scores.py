@@ -3,7 +3,8 @@
 Per run: normalized RMS parameter error, per-parameter relative errors,
 natural-frequency errors (%) and the MAC of mode shapes (modal results with
 damping: modes paired with the true ones, damping errors and the coverage of
-the stated errors, :mod:`modal_scores`); per results file a
+the stated errors, :mod:`modal_scores`; updating from a baseline: which
+parameters changed beyond their errors, :mod:`damage_scores`); per results file a
 summary over the Monte Carlo runs (median and 10-90 % spread).
 """
 from __future__ import annotations
@@ -18,6 +19,7 @@ from structbench.models.errors import UserError
 
 from structbench.models.mac import mac
 
+from .damage_scores import damage_scores
 from .metrics import frequency_error_pct, normalized_rms, relative_errors
 from .truth_checks import read_truth
 from .modal_scores import modal_scores, modal_summary
@@ -124,6 +126,10 @@ def score_campaign(folder: str | Path) -> dict[str, Any]:
         header, runs = read_results(path)
         if not runs:
             raise UserError("holds no runs: nothing to score", field=path.name)
-        scored = [score_run(r.to_dict(), truth) for r in runs]
+        plain = [r.to_dict() for r in runs]
+        scored = [score_run(r, truth) for r in plain]
         scores[path.stem] = {"method": header["method"], "summary": summarize(scored), "runs": scored}
+        damage = damage_scores(folder, header, plain)  # updating from a baseline: what changed
+        if damage is not None:
+            scores[path.stem]["damage"] = damage
     return scores
