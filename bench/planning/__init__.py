@@ -65,7 +65,7 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
     With ``candidates`` and ``sensors`` (a budget K) also ``layout``: layouts by
     effective independence and D-optimal design, the better one written as a
     campaign file ``layout_out`` (default ``<campaign>-plan-<test>.toml``
-    beside the campaign) and planned on. ``verify`` > 0: that many Monte
+    in the working folder) and planned on. ``verify`` > 0: that many Monte
     Carlo repetitions (seed ``seed``) through the FMU and the method, ``verify``
     holding predicted against achieved standard deviations."""
     from structbench.harness.campaign import load_campaign

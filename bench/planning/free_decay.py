@@ -161,16 +161,19 @@ def channel_sigma(beta: np.ndarray, ratio: np.ndarray, gram: np.ndarray) -> np.n
 
 def channel_information(beta: np.ndarray, sigma: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """Per channel the information ``L_c^T Q L_c / sigma_c^2`` (C, 2R, 2R) on
-    ``(alpha_r, wd_r)`` interleaved (channels without noise: zero)."""
+    ``(alpha_r, wd_r)`` interleaved (channels without noise: zero); ``L_c``'s
+    2 x 2 blocks keep it O(C R^2)."""
     C, R = beta.shape[:2]
     a, b = beta[..., 0], beta[..., 1]
-    L = np.zeros((C, 2 * R, 2 * R))
-    idx = np.arange(R)
-    L[:, 2 * idx, 2 * idx], L[:, 2 * idx + 1, 2 * idx] = -a, -b
-    L[:, 2 * idx, 2 * idx + 1], L[:, 2 * idx + 1, 2 * idx + 1] = b, -a
+    blocks = np.empty((C, R, 2, 2))  # [c, r, basis (g, h), parameter (alpha, wd)]
+    blocks[:, :, 0, 0], blocks[:, :, 1, 0] = -a, -b
+    blocks[:, :, 0, 1], blocks[:, :, 1, 1] = b, -a
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(sigma > 0, 1.0 / sigma**2, 0.0)
-    return np.einsum("cji,jk,ckl->cil", L, Q, L) * w[:, None, None]
+    Qb = Q.reshape(R, 2, R, 2)
+    left = np.einsum("crai,rasb->crisb", blocks, Qb)
+    info = np.einsum("crisb,csbj->crisj", left, blocks)
+    return info.reshape(C, 2 * R, 2 * R) * w[:, None, None]
 
 
 def visible(d: Decay, beta: np.ndarray, sigma: np.ndarray) -> np.ndarray:
@@ -209,6 +212,7 @@ def free_decay_bounds(model: Model, test: TestSpec) -> dict:
     gram, _ = bases(d)
     sigma = channel_sigma(beta, ratio, gram)
     seen = visible(d, beta, sigma)
+    hidden = d.omega[~seen]
     d = Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
     beta = beta[:, seen]
     _, Q = bases(d)
@@ -216,4 +220,4 @@ def free_decay_bounds(model: Model, test: TestSpec) -> dict:
     cov = omega_zeta_covariance(d, info.sum(axis=0))
     modes = [{"omega": float(w), "predicted_omega_std": float(np.sqrt(c[0, 0])), "zeta": float(z),
               "predicted_zeta_std": float(np.sqrt(c[1, 1]))} for w, z, c in zip(d.omega, d.zeta, cov)]
-    return {"modes": modes, "channels": [c.name for c in chans]}
+    return {"modes": modes, "not_visible": [float(w) for w in hidden], "channels": [c.name for c in chans]}

@@ -1,0 +1,209 @@
+"""Sensor layouts: K channels out of candidate ones for the modal method.
+
+Candidates (``--candidates FILE``): TOML ``[[candidates]]`` entries as
+campaign sensor entries (``nodes`` = list or ``"all"``, optional ``dirs``,
+``quantities``), or CSV rows ``node,dir,quantity`` under that header
+(docs/plan.md). Each candidate channel ``c`` carries the free-decay
+Fisher information ``I_c = L_c^T Q L_c / sigma_c^2`` (2R, 2R) on the modes'
+``(alpha_r, wd_r)`` (:mod:`.free_decay`), in relative units (each pair
+divided by ``omega_r``), for the modes that every candidate together
+determines to :data:`PRECISE` (relative omega standard error). Two layouts of ``K`` channels, at most one per
+(node, direction) since the modal identifier takes one channel per
+location:
+
+* effective independence (Kammer 1991): from all candidates, repeatedly
+  drop the one of least ``E_c = psi_c^T (Psi^T Psi)^-1 psi_c``, ``psi_c``
+  (R,) the channel's modal amplitudes over its noise, ``|beta_cr| / sigma_c``
+  (one at a time near the budget, in batches of 5 % far above it);
+* D-optimal on the method's own information: greedy, the channel that most
+  increases ``log det(sum I_c + eps I)``, then exchange passes (each chosen
+  channel swapped for the best other while that improves), O(K C R^3) per pass.
+
+The one of larger ``log det`` is chosen and written as a campaign file
+(default ``./<campaign>-plan-<test>.toml``).
+Fails (:class:`UserError`) for least squares (it needs a response at every
+DOF), an unreadable file, a candidate that is not a model DOF, or a budget
+above the number of distinct locations.
+"""
+from __future__ import annotations
+
+import csv
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structbench.models import Model
+from structbench.models.errors import UserError
+
+from . import free_decay as fd
+from .campaign_files import test_campaign
+
+RIDGE = 1e-9  # eps relative to the largest diagonal entry of the full candidate information
+EXCHANGE_PASSES = 3
+EFI_BATCH = 4  # effective independence drops one candidate at a time below this many times the budget
+PRECISE = 0.005  # modes planned for: predicted omega std below this share of omega with every candidate measured
+
+
+def read_candidates(path: str | Path, model: Model) -> list[tuple[int, str, str]]:
+    """(node, dir, quantity) per candidate channel, in file order, duplicates dropped."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise UserError(f"{path}: cannot read ({err})", field="--candidates") from None
+    out: list[tuple[int, str, str]] = []
+    if path.suffix.lower() == ".csv":
+        rows = list(csv.DictReader(text.splitlines()))
+        if not rows or set(rows[0]) != {"node", "dir", "quantity"}:
+            raise UserError(f"{path}: expected the header node,dir,quantity", field="--candidates")
+        for i, row in enumerate(rows, start=2):
+            try:
+                out.append((int(row["node"]), row["dir"].strip(), row["quantity"].strip()))
+            except (TypeError, ValueError):
+                raise UserError(f"{path}:{i}: node must be an integer", field="--candidates") from None
+    else:
+        try:
+            entries = tomllib.loads(text).get("candidates", [])
+        except tomllib.TOMLDecodeError as err:
+            raise UserError(f"{path}: {err}", field="--candidates") from None
+        for i, e in enumerate(entries, start=1):
+            if not isinstance(e, dict) or "nodes" not in e or "quantities" not in e:
+                raise UserError(f"{path}: candidates[{i}] needs nodes and quantities", field="--candidates")
+            dofs = [d for d in model.dofs if e["nodes"] == "all" or d[0] in e["nodes"]]
+            dofs = [d for d in dofs if "dirs" not in e or d[1] in e["dirs"]]
+            out += [(n, d, q) for n, d in dofs for q in e["quantities"]]
+    for n, d, q in out:
+        if q not in fd.ORDER:
+            raise UserError(f"{path}: candidate quantity {q!r}; known: {', '.join(fd.ORDER)}", field="--candidates")
+        try:
+            model.dof_index(n, d)
+        except Exception:
+            raise UserError(f"{path}: candidate ({n}, {d!r}) is not a free DOF of {model.name}",
+                            field="--candidates") from None
+    return list(dict.fromkeys(out))
+
+
+def candidate_information(model: Model, test, cands: list[tuple[int, str, str]]) -> tuple[np.ndarray, np.ndarray,
+                                                                                         fd.Decay]:
+    """Per candidate the relative information (C, 2R, 2R) and ``psi`` (C, R),
+    on the modes visible with every candidate measured."""
+    d = fd.decay(model, test)
+    rows = np.array([model.dof_index(n, di) for n, di, _ in cands])
+    orders = np.array([fd.ORDER[q] for _, _, q in cands])
+    ratio = np.array([test.noise.ratio(q) for _, _, q in cands])
+    if not ratio.any():
+        raise UserError("the test has no sensor noise on the candidate quantities", field="noise")
+    beta = fd.amplitudes(d, rows, orders)
+    gram, _ = fd.bases(d)
+    sigma = fd.channel_sigma(beta, ratio, gram)
+    seen = fd.visible(d, beta, sigma)
+    d = fd.Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
+    beta = beta[:, seen]
+    _, Q = fd.bases(d)
+    info = fd.channel_information(beta, sigma, Q)
+    rel = np.sqrt(fd.omega_zeta_covariance(d, info.sum(axis=0))[:, 0, 0]) / d.omega
+    keep = rel < PRECISE
+    if not keep.all():  # plan for the modes the full candidate set determines well
+        d = fd.Decay(d.omega[keep], d.zeta[keep], d.A[keep], d.B[keep], d.shapes[:, keep], d.dt, d.m)
+        beta = beta[:, keep]
+        _, Q = fd.bases(d)
+        info = fd.channel_information(beta, sigma, Q)
+    scale = np.repeat(d.omega, 2)  # (alpha, wd) / omega: relative units
+    info *= scale[None, :, None] * scale[None, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        psi = np.where(sigma[:, None] > 0, np.linalg.norm(beta, axis=2) / sigma[:, None], 0.0)
+    return info, psi, d
+
+
+def _logdet(J: np.ndarray) -> float:
+    sign, value = np.linalg.slogdet(J)
+    return float(value) if sign > 0 else -np.inf
+
+
+def effective_independence(psi: np.ndarray, locations: np.ndarray, k: int) -> list[int]:
+    """Kammer's effective independence: indices of ``k`` candidates kept, at most
+    one per location (of a shared location the weaker channels go first).
+    While over :data:`EFI_BATCH` x ``k`` remain, the lowest 5 % go at once."""
+    alive = np.ones(psi.shape[0], bool)
+    while alive.sum() > k:
+        idx = np.flatnonzero(alive)
+        A_inv = np.linalg.pinv(psi[idx].T @ psi[idx])
+        E = np.einsum("cr,rs,cs->c", psi[idx], A_inv, psi[idx])
+        loc, counts = np.unique(locations[idx], return_counts=True)
+        E = np.where(np.isin(locations[idx], loc[counts > 1]), E - 10.0, E)  # the identifier uses one per location
+        excess = idx.size - k
+        drop = max(1, idx.size // 20) if idx.size > EFI_BATCH * k else 1
+        alive[idx[np.argsort(E, kind="stable")[:min(drop, excess)]]] = False
+    return np.flatnonzero(alive).tolist()
+
+
+def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> list[int]:
+    """Greedy D-optimal choice of ``k`` candidates (one per location), then exchanges."""
+    ridge = eps * np.eye(info.shape[1])
+
+    def best(J: np.ndarray, banned: set[int]) -> tuple[int, float]:
+        ok = np.array([loc not in banned for loc in locations])
+        sign, val = np.linalg.slogdet(J[None] + info[ok])
+        val = np.where(sign > 0, val, -np.inf)
+        i = int(np.argmax(val))
+        return int(np.flatnonzero(ok)[i]), float(val[i])
+
+    chosen: list[int] = []
+    J = ridge.copy()
+    for _ in range(k):
+        j, _ = best(J, {locations[c] for c in chosen})
+        chosen.append(j)
+        J = J + info[j]
+    for _ in range(EXCHANGE_PASSES):
+        improved = False
+        for pos in range(k):
+            rest = chosen[:pos] + chosen[pos + 1:]
+            J_rest = ridge + info[rest].sum(axis=0)
+            j, val = best(J_rest, {locations[c] for c in rest})
+            if j != chosen[pos] and val > _logdet(J_rest + info[chosen[pos]]) + 1e-9:
+                chosen[pos], improved = j, True
+        if not improved:
+            break
+    return chosen
+
+
+def evaluate(info: np.ndarray, d: fd.Decay, chosen: list[int], eps: float) -> dict[str, Any]:
+    """``log det`` of the layout's relative information and its median predicted
+    relative omega standard error."""
+    J = info[chosen].sum(axis=0) + eps * np.eye(info.shape[1])
+    scale = np.repeat(d.omega, 2)
+    cov = fd.omega_zeta_covariance(d, J / np.outer(scale, scale))
+    return {"log_det": _logdet(J), "median_rel_omega_std": float(np.median(np.sqrt(cov[:, 0, 0]) / d.omega))}
+
+
+def plan_layout(model: Model, specs, method: str, candidates: str | Path, k: int, campaign: Path, test: str,
+                out: str | Path | None = None) -> dict[str, Any]:
+    """The ``layout`` section of a plan (both layouts, the chosen one and the
+    campaign file written with it)."""
+    if method != "modal":
+        raise UserError(f"sensor layouts are planned for the modal method; {method} needs a response at every "
+                        "DOF", field="--candidates")
+    if len(specs) != 1:
+        raise UserError("a layout is planned for one test", field="--test")
+    cands = read_candidates(candidates, model)
+    ids: dict[tuple[int, str], int] = {}
+    locations = np.array([ids.setdefault((n, d), len(ids)) for n, d, _ in cands])
+    if not 1 <= k <= np.unique(locations).size:
+        raise UserError(f"must be between 1 and the {np.unique(locations).size} candidate locations",
+                        field="--sensors")
+    info, psi, d = candidate_information(model, specs[0], cands)
+    if info.shape[1] == 0:
+        raise UserError("no mode of the test is visible at the candidates", field="--candidates")
+    eps = RIDGE * float(np.max(np.diag(info.sum(axis=0))))
+    layouts = {"effective-independence": effective_independence(psi, locations, k),
+               "d-optimal": d_optimal(info, locations, k, eps)}
+    rows = {name: evaluate(info, d, idx, eps) | {"sensors": [list(cands[i]) for i in sorted(idx)]}
+            for name, idx in layouts.items()}
+    chosen = max(rows, key=lambda name: rows[name]["log_det"])
+    target = Path(out) if out is not None else Path.cwd() / f"{campaign.stem}-plan-{test}.toml"
+    target.write_text(test_campaign(campaign, test, sensors=[tuple(s) for s in rows[chosen]["sensors"]],
+                                    only=False), encoding="utf-8")
+    return {"candidates": len(cands), "budget": k, "chosen": chosen, "sensors": rows[chosen]["sensors"],
+            "campaign": str(target), "layouts": rows, "modes_planned": [float(w) for w in d.omega]}
