@@ -9,6 +9,16 @@ where shapes are known, MAC above ``MAC_PAIR``). Every per-mode list is
 aligned with the truth's modes; NaN marks a true mode not found (and, for
 damping errors, a true damping ratio of 0 or unknown). ``covered`` says
 whether the 95 % interval ``value +- 1.96 std`` holds the truth.
+
+Harmonics (``truth["harmonics"]``: per test the periodic forces a
+``disturbance`` excitation added, docs/campaign-format.md) are scored by
+:func:`harmonic_scores`: a true harmonic is *listed* when an entry of the
+run's ``details.harmonics`` lies within ``HARMONIC_TOL`` (relative) or two
+spectral lines ``2 (2 pi / T)`` of it (``T``: ``details.record_s``); a
+reported mode paired with no true mode and within ``PAIR_HARMONIC`` of a
+true harmonic is a *harmonic reported as a mode*; a listed harmonic near no
+true one is *spurious*, and a *mode listed as a harmonic* when it is within
+``PAIR_HARMONIC`` of a true mode.
 """
 from __future__ import annotations
 
@@ -23,6 +33,8 @@ from structbench.models.mac import mac
 PAIR_TOL = 0.05
 MAC_PAIR = 0.5
 Z95 = 1.959964
+HARMONIC_TOL = 0.002
+PAIR_HARMONIC = 0.01
 
 
 def _sensor_dof(channel: str) -> tuple[int, str]:
@@ -92,7 +104,48 @@ def modal_scores(run: dict[str, Any], truth: dict[str, Any]) -> dict[str, Any]:
         "extra_modes": int(len(run.get("omega") or []) - np.sum(match >= 0))}
     if macs is not None:
         out["mac"] = macs.tolist()
+    if truth.get("harmonics"):
+        out["harmonics"] = harmonic_scores(run, true_harmonics(run, truth), truth)
     return out
+
+
+def true_harmonics(run: dict[str, Any], truth: dict[str, Any]) -> list[dict[str, Any]]:
+    """The harmonics (``omega`` rad/s, ...) of the run's tests in ``truth["harmonics"]``
+    (test name -> list), each frequency once."""
+    table = truth.get("harmonics") or {}
+    if isinstance(table, list):
+        return table
+    seen: dict[float, dict[str, Any]] = {}
+    for test in run.get("tests") or []:
+        for h in table.get(test, []):
+            seen.setdefault(round(float(h["omega"]), 9), h)
+    return list(seen.values())
+
+
+def harmonic_scores(run: dict[str, Any], harmonics: list[dict[str, Any]], truth: dict[str, Any]) -> dict[str, Any]:
+    """Harmonics listed and missed, harmonics reported as modes, spurious
+    harmonics and modes listed as harmonics (module docstring) of one run
+    against ``harmonics`` (each with ``omega`` rad/s)."""
+    true_h = np.array([float(h["omega"]) for h in harmonics])
+    listed = np.array([float(h["omega"]) for h in (run.get("details") or {}).get("harmonics") or []])
+    record = float((run.get("details") or {}).get("record_s") or np.inf)
+    tol = np.maximum(HARMONIC_TOL * true_h, 4 * np.pi / record)
+    near = np.abs(listed[:, None] - true_h[None, :]) <= tol[None, :] if listed.size and true_h.size \
+        else np.zeros((listed.size, true_h.size), bool)
+    each = near.any(axis=0)
+    match, _ = pairs(run, truth)
+    omega = np.asarray(run.get("omega") or [], dtype=float)
+    unpaired = np.setdiff1d(np.arange(omega.size), match[match >= 0])
+    as_modes = sum(bool(true_h.size) and bool(np.any(np.abs(omega[i] - true_h) <= PAIR_HARMONIC * true_h))
+                   for i in unpaired)
+    spurious = listed[~near.any(axis=1)] if listed.size else listed
+    modes = np.asarray(truth.get("omega") or [], dtype=float)
+    modes = modes[modes > 0]
+    as_harmonics = sum(bool(modes.size) and bool(np.any(np.abs(w - modes) <= PAIR_HARMONIC * modes))
+                       for w in spurious)
+    return {"harmonics": int(true_h.size), "listed": int(each.sum()), "missed": int(true_h.size - each.sum()),
+            "listed_each": each.tolist(), "as_modes": int(as_modes), "listed_spurious": int(spurious.size),
+            "modes_as_harmonics": int(as_harmonics)}
 
 
 def nanmedian(rows: list[list[float]]) -> list[float]:
@@ -123,4 +176,8 @@ def modal_summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "extra_modes_median": float(np.median([r["extra_modes"] for r in runs]))}
     if all("mac" in r for r in runs):
         out["mac_median"] = nanmedian([r["mac"] for r in runs])
+    if any("harmonics" in r for r in runs):
+        scored = [r["harmonics"] for r in runs if "harmonics" in r]
+        out["harmonics"] = {key: int(sum(h[key] for h in scored)) for key in
+                            ("harmonics", "listed", "missed", "as_modes", "listed_spurious", "modes_as_harmonics")}
     return out

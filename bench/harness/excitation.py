@@ -18,6 +18,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .disturbance import Disturbance
 from .noise import derived_seed
 
 Dof = tuple[int, str]
@@ -181,12 +182,12 @@ class GroundForce(RecordedForce):
         return -self.mass * super().force(t, dt)
 
 
-Excitation = Harmonic | Impulse | RandomForce | Initial | RecordedForce
+Excitation = Harmonic | Impulse | RandomForce | Initial | RecordedForce | Disturbance
 
 
 def is_force(item: Excitation) -> bool:
     """Does the item need a force input to the FMU?"""
-    return (isinstance(item, (Harmonic, RandomForce, RecordedForce))
+    return (isinstance(item, (Harmonic, RandomForce, RecordedForce, Disturbance))
             or (isinstance(item, Impulse) and item.method == "pulse"))
 
 

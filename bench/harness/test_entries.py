@@ -19,6 +19,7 @@ from structbench.models.channels import QUANTITIES, ROTATIONS, Channel
 from .excitation import (Excitation, GroundForce, Harmonic, Impulse, Initial, RandomForce, RecordedForce,
                          SignalFileError, digest, force_dofs, is_force, perturb, read_recording, realisations,
                          resample, varies)
+from . import disturbance
 from .external import VariableMap
 from .noise import MODES, NoiseSpec, actuator_rng, derived_seed
 from .toml_lines import Path as KeyPath
@@ -50,6 +51,7 @@ EXCITATION_KEYS = {
     "initial": ("kind", "node", "dir", "displacement", "velocity"),
     "recorded": ("kind", "node", "dir", "file", "channel", "unit", "scale", "time"),
     "ground": ("kind", "dir", "file", "channel", "unit", "scale", "time"),
+    "disturbance": disturbance.KEYS,
 }
 SENSOR_KEYS = ("nodes", "dirs", "quantities")
 NOISE_KEYS = ("sensor", "mode", "actuator_amplitude", "actuator_frequency", "seed")
@@ -184,6 +186,9 @@ class TestReader:
         self._dof(item, node, direction, "node")
         if kind == "stepped-sine":
             return self._stepped_sine(item, node, direction, duration)
+        if kind == "disturbance":  # bench/harness/disturbance.py
+            seed = derived_seed(self.noise.seed, self.name, "disturbance", index)
+            return disturbance.read(item, node, direction, seed, self.dt), (), None
         build = {"harmonic": self._harmonic, "impulse": self._impulse, "random": self._random,
                  "initial": self._initial, "recorded": self._recorded}[kind]
         return build(item, node, direction, index, duration), (), None

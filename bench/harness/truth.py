@@ -12,6 +12,7 @@ from structbench.models import ModalModel, Model
 from structbench.models.analysis import Modes, damping_ratios
 
 from .campaign import Campaign
+from .disturbance import truth_table
 
 TRUTH_FORMAT = "structbench-truth"
 
@@ -54,6 +55,8 @@ def truth(campaign: Campaign) -> dict[str, Any] | None:
     ``[truth]`` table, or None."""
     head = {"format": TRUTH_FORMAT, "format_version": 1, "campaign": campaign.name,
             "structure": campaign.structure}
+    if harmonics := truth_table(campaign.tests):  # per test, its disturbance sinusoids (disturbance.py)
+        head["harmonics"] = harmonics
     if campaign.model is None:
         return None if campaign.truth is None else head | {"source": "campaign"} | dict(campaign.truth)
     model = campaign.true_model

@@ -84,6 +84,7 @@ from .ssi.hankel import BlockHankel, leading_svd
 from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, with_bias
+from . import harmonics as periodic
 from .support import rejected as support_rejected
 from ..io.traces import Channel, Trace
 
@@ -163,6 +164,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     mo = min(m, max(ROW_CHANNELS, r))
     refs = reference_channels(m, r)
     decay = all(is_free_decay(y) for y in records)
+    screened = periodic.Screened(records, [], []) if decay else periodic.screen(records, dt)
+    records = screened.records
     f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
     p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, block_rows)
     if shortest < 20 * (p + q):
@@ -203,6 +206,11 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
             return ok
 
         modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
+        periodic_modes, found = periodic.confirm(
+            screened, dt, np.array([md.omega for md in modes]),
+            np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),
+            np.array([md.zeta for md in modes])) if not decay else (np.zeros(len(modes), bool), [])
+        modes = [md for md, h in zip(modes, periodic_modes) if not h]
         fits = [fit[md.order, md.index] for md in modes]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
@@ -231,6 +239,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     omega, zeta, omega_se, zeta_se = split.omega[finite], split.zeta[finite], split.omega_std[finite], \
         split.zeta_std[finite]
     shapes, refined, source = split.shapes[:, finite], split.refined[finite], split.source[finite]
+    periodic.on_modes(found, omega, zeta)
     modes = [modes[i] if i >= 0 else None for i in source]  # -1: found by the free-decay fit
     fits = [fits[i] if i >= 0 else None for i in source]
     return Identification(
@@ -249,6 +258,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "refined": refined.tolist(),
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
+                 "harmonics": [ln.entry() for ln in found],
                  "warnings": _warnings(free, f_low, length),
                  "stabilisation": _diagram(poles, flags)})
 

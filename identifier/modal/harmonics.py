@@ -1,0 +1,294 @@
+"""Harmonics (periodic components: mains multiples, rotating machinery) in
+stationary records, told apart from modes.
+
+A harmonic is a sinusoid ``a_c cos(omega t + phi_c)`` on every channel c,
+added to the random response. Two established tests tell it from a mode
+(Brincker, Andersen & Moller 2000; Jacobsen 2006):
+
+1. the probability density of the response filtered to a narrow band
+   around ``omega``: a sinusoid's is bimodal, kurtosis 1.5; a random
+   (Gaussian) response's kurtosis is 3. For a sinusoid of power ``P_s``
+   over Gaussian power ``P_g`` in the band, ``kappa = 3 - 1.5 rho^2``,
+   ``rho = P_s / (P_s + P_g)``. The band-filtered response is evaluated
+   through its complex envelope: the channels demodulated at ``omega``,
+   ``z_c(b) = sum_j w_j y_c(t_bj) exp(-i omega t_bj)`` over ``K`` blocks
+   of Hann weights ``w`` (a filter ``K`` spectral lines of the record
+   wide), combined over the channels by the matched weights
+   ``conj(a_c) / sigma_c^2`` (``sigma_c^2``: the channel's random power
+   near ``omega``); ``kappa = 1.5 <|z|^4> / <|z|^2>^2``, the kurtosis of
+   ``Re(z e^(i omega t))`` averaged over the carrier;
+2. the damping ratio the SSI poles at ``omega`` give: near zero
+   (``|zeta| < ZETA``) at every model order the pole is stable at
+   (:mod:`identifier.modal`).
+
+Candidates are the lines of the record's spectrum (:func:`detect`): local
+maxima of the Hann-windowed periodogram summed over the RMS-scaled
+channels that stand ``LINE`` times above its running median over
+``2 WINDOW + 1`` lines. Each line's frequency is refined (interpolation
+of the log spectrum, then a parabola through the windowed transform's
+power 0.05 lines either side), its complex amplitude per channel fitted
+by least squares and its kurtosis measured in a band of
+``K = clip(ratio / 8, 64, 1024)`` lines (``ratio``: the line over the
+median; fewer when the record is short: blocks of at least 8 samples and
+2 periods). A line of kurtosis under ``KURTOSIS`` is a harmonic; it is
+subtracted from the records before SSI, so that it takes no model order
+and biases no mode near it. A line of kurtosis under ``DOUBTFUL`` is a
+harmonic only when an SSI mode there has near-zero damping at every order.
+
+Fails (misses the harmonic) when its line does not stand ``LINE`` times
+above the random response near it (a weak harmonic on a mode's peak), or
+when the band of ``K`` lines holds as much random power as the harmonic;
+takes a mode for a harmonic only when the mode's peak is a few lines wide
+(``zeta omega T`` of a few decay times, which the support tests reject
+anyway) and its kurtosis estimate falls under ``KURTOSIS`` by chance.
+Frequencies that drift over the record (a machine run up) are not lines
+and are not found.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d, median_filter
+
+LINE = 20.0  # least periodogram line over its running median
+WINDOW = 64  # lines each side of the running median
+KURTOSIS = 2.0  # band kurtosis below this, and ...
+SURE = 3.0  # ... this many of a random response's standard errors 3 / sqrt(K) below 3: a harmonic
+DOUBTFUL = 2.6  # ... below this, a harmonic when SSI gives it near-zero damping, or no SSI mode is near
+SKIRT = 5.0  # a line within this many half-power bandwidths zeta omega of a damped SSI mode is its peak
+ZETA = 0.003  # median |zeta| over the stable poles below this: near-zero damping
+MAX_LINES = 40  # lines tested per record (the strongest)
+BLOCKS = (64, 1024)  # band width in spectral lines: clip(ratio / 8, *BLOCKS)
+
+
+@dataclass(eq=False)
+class Line:
+    """One spectral line: ``omega`` rad/s, its complex amplitude per channel
+    (m,) in the channels' units, band kurtosis, line-to-median ratio and
+    band width in spectral lines (``blocks``)."""
+
+    omega: float
+    amplitude: np.ndarray
+    kurtosis: float
+    ratio: float
+    blocks: int
+    test: str = "kurtosis"
+    zeta: float | None = None
+    on_mode: float | None = None
+    extra: dict = field(default_factory=dict)
+
+    def entry(self) -> dict:
+        """The results' ``details.harmonics`` entry (docs/results-format.md)."""
+        a = np.abs(self.amplitude)
+        return {"omega": self.omega, "frequency_hz": self.omega / (2 * np.pi), "amplitude": a.tolist(),
+                "amplitude_max": float(a.max()) if a.size else 0.0, "kurtosis": self.kurtosis,
+                "line_ratio": self.ratio, "band_lines": self.blocks, "zeta": self.zeta, "test": self.test,
+                "on_mode": self.on_mode}
+
+
+def _spectrum(y: np.ndarray) -> np.ndarray:
+    """Hann-windowed transforms (m, n // 2 + 1) of the RMS-scaled channels."""
+    rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
+    return np.fft.rfft(y / np.where(rms > 0, rms, 1.0) * np.hanning(y.shape[1]), axis=1)
+
+
+def _power(y: np.ndarray, omega: float, t: np.ndarray, window: np.ndarray) -> float:
+    return float(np.sum(np.abs(y @ (window * np.exp(-1j * omega * t)))**2))
+
+
+def fit(y: np.ndarray, omega: float, t: np.ndarray) -> np.ndarray:
+    """Least-squares complex amplitudes (m,) of ``a cos(omega t) + b sin(omega t)``
+    in ``y`` (m, n): ``a - i b`` per channel."""
+    c, s = np.cos(omega * t), np.sin(omega * t)
+    gram = np.array([[c @ c, c @ s], [c @ s, s @ s]])
+    ab = np.linalg.solve(gram, np.vstack([y @ c, y @ s]))
+    return ab[0] - 1j * ab[1]
+
+
+def subtract(y: np.ndarray, lines: list[Line], dt: float) -> np.ndarray:
+    """``y`` (m, n) less the fitted sinusoids of ``lines``."""
+    t = np.arange(y.shape[1]) * dt
+    out = y.copy()
+    for ln in lines:
+        out -= np.outer(ln.amplitude.real, np.cos(ln.omega * t)) - np.outer(ln.amplitude.imag, np.sin(ln.omega * t))
+    return out
+
+
+def kurtosis(y: np.ndarray, omega: float, dt: float, blocks: int, amplitude: np.ndarray,
+             noise: np.ndarray) -> tuple[float, int]:
+    """Kurtosis of ``y`` (m, n) filtered to ``blocks`` spectral lines around
+    ``omega`` rad/s (module docstring), and the blocks used: at least 8
+    samples and 2 periods per block, at least 8 blocks (else NaN)."""
+    n = y.shape[1]
+    least = max(8, int(np.ceil(4 * np.pi / (omega * dt))))
+    k = min(blocks, n // least)
+    if k < 8:
+        return float("nan"), k
+    size = n // k
+    t = np.arange(k * size) * dt
+    carrier = (np.hanning(size + 2)[1:-1] * np.exp(-1j * omega * t).reshape(k, size))  # (k, size)
+    z = np.einsum("mkj,kj->mk", y[:, :k * size].reshape(y.shape[0], k, size), carrier)
+    w = np.conj(amplitude) / np.maximum(noise, 1e-300)
+    zc = w @ z
+    p = np.abs(zc)**2
+    return float(1.5 * np.mean(p**2) / max(np.mean(p)**2, 1e-300)), k
+
+
+def _hann_gain(x: np.ndarray) -> np.ndarray:
+    """Power response of a Hann-weighted block at ``x`` of its own frequency lines from its centre."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.sinc(x) / (1 - x**2)
+    return np.where(np.isclose(np.abs(x), 1.0), 0.5, g)**2
+
+
+def band_lines(P: np.ndarray, bg: np.ndarray, j: int, n: int, omega: float, dt: float) -> int:
+    """Blocks ``K`` (the band in the record's spectral lines) that best tell
+    the line at ``j`` from a random response: the line's power ``L`` (``P``
+    over ``bg`` within 2 lines), the random power through the Hann blocks
+    ``G_K = sum_k |W((k - j) / K)|^2 B_k`` (``B``: ``P`` with the line's
+    lines replaced by ``bg``), ``rho = L / (L + G_K)``; the largest
+    ``rho^2 sqrt(K)`` (the kurtosis drop ``1.5 rho^2`` over a random
+    response's standard error ``3 / sqrt(K)``) over K = 16, 32, ..., 1024
+    that the record holds (:func:`kurtosis`)."""
+    least = max(8, int(np.ceil(4 * np.pi / (omega * dt))))
+    B = P.copy()
+    B[max(j - 3, 0):j + 4] = bg[max(j - 3, 0):j + 4]
+    line = float(np.sum(P[max(j - 2, 0):j + 3] - bg[max(j - 2, 0):j + 3]))
+    best, score = BLOCKS[0], -1.0
+    for K in 2 ** np.arange(4, 11):
+        if n // K < least:
+            break
+        lo, hi = max(j - 6 * K, 0), min(j + 6 * K + 1, P.size)
+        G = float(_hann_gain((np.arange(lo, hi) - j) / K) @ B[lo:hi])
+        value = (line / (line + G))**2 * np.sqrt(K)
+        if value > score:
+            best, score = int(K), value
+    return best
+
+
+def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
+    """The lines of a stationary record ``y`` (m, n) sampled every ``dt`` s
+    with their kurtosis (module docstring), strongest first; none when the
+    record is under ``4 WINDOW`` samples."""
+    m, n = y.shape
+    if n < 4 * WINDOW:
+        return []
+    X = _spectrum(y)
+    P = np.sum(np.abs(X)**2, axis=0)
+    bg = median_filter(P, size=2 * WINDOW + 1, mode="nearest")
+    ratio = P / np.maximum(bg, 1e-300)
+    peak = P >= maximum_filter1d(P, size=7, mode="nearest")
+    k = np.flatnonzero(peak & (ratio >= LINE))
+    k = k[(k >= 3) & (k <= P.size - 4)]
+    k = k[np.argsort(-ratio[k])][:max_lines]
+    t = np.arange(n) * dt
+    window = np.hanning(n)
+    lines = []
+    for j in k:
+        a, b, c = np.log(P[j - 1:j + 2])
+        delta = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c < 0 else 0.0
+        bin_w = 2 * np.pi / (n * dt)
+        omega = (j + float(np.clip(delta, -0.5, 0.5))) * bin_w
+        h = 0.05 * bin_w
+        p0, p1, p2 = (_power(y, omega + d, t, window) for d in (-h, 0.0, h))
+        if p0 - 2 * p1 + p2 < 0:
+            omega += float(np.clip(0.5 * h * (p0 - p2) / (p0 - 2 * p1 + p2), -h, h))
+        amplitude = fit(y, omega, t)
+        lo, hi = max(j - WINDOW, 0), min(j + WINDOW + 1, P.size)
+        near = np.r_[lo:max(j - 3, lo), min(j + 4, hi):hi]
+        rms2 = np.mean(y**2, axis=1)
+        noise = np.median(np.abs(X[:, near])**2, axis=1) * rms2 + 1e-300
+        kappa, used = kurtosis(y, omega, dt, band_lines(P, bg, j, n, omega, dt), amplitude, noise)
+        lines.append(Line(float(omega), amplitude, kappa, float(ratio[j]), used))
+    return lines
+
+
+
+@dataclass
+class Screened:
+    """Records (per trace, (m, n)) less the harmonics found before SSI
+    (``lines``, kurtosis under ``KURTOSIS``), and the ``doubtful`` lines
+    (under ``DOUBTFUL``) that SSI's damping decides."""
+
+    records: list[np.ndarray]
+    lines: list[Line]
+    doubtful: list[Line]
+
+
+def _merge(found: list[Line], tol: float) -> list[Line]:
+    """One line per frequency (within ``tol`` rad/s), the one of the largest ratio."""
+    out: list[Line] = []
+    for ln in sorted(found, key=lambda x: -x.ratio):
+        if all(abs(ln.omega - o.omega) > tol for o in out):
+            out.append(ln)
+    return sorted(out, key=lambda x: x.omega)
+
+
+def screen(records: list[np.ndarray], dt: float) -> Screened:
+    """The lines of each stationary record (:func:`detect`); those of
+    kurtosis under ``KURTOSIS`` subtracted from it (module docstring)."""
+    cleaned, sure, doubtful = [], [], []
+    for y in records:
+        found = detect(y, dt)
+        here = [ln for ln in found if ln.kurtosis < KURTOSIS and (3 - ln.kurtosis) * np.sqrt(ln.blocks) >= 3 * SURE]
+        sure += here
+        doubtful += [ln for ln in found if ln not in here and ln.kurtosis < DOUBTFUL]
+        cleaned.append(subtract(y, here, dt) if here else y)
+    tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
+    return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
+
+
+def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray
+            ) -> tuple[np.ndarray, list[Line]]:
+    """Which SSI modes (``omega`` (k,) rad/s, ``zeta_abs`` the median
+    ``|zeta|`` over each one's stable poles, ``zeta`` its median) are
+    harmonics, and every harmonic found:
+
+    - the lines subtracted before SSI (test ``kurtosis``); an SSI mode left
+      there of near-zero damping is their residue and dropped too;
+    - an SSI mode of near-zero damping at its orders (``zeta_abs < ZETA``)
+      whose band kurtosis is under ``DOUBTFUL`` (a doubtful line's there,
+      else measured in the cleaned records over ``BLOCKS[1]`` lines, where a
+      random response's is 3 within about 0.1): ``kurtosis+damping``;
+    - a doubtful line no SSI mode explains, i.e. none lies within
+      ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` of it: ``kurtosis``
+      (a harmonic too weak for SSI; a mode's peak is never that far from
+      its mode)."""
+    y = max(screened.records, key=lambda r: r.shape[1])
+    tol = 4 * np.pi / (y.shape[1] * dt)
+    drop = np.zeros(omega.size, dtype=bool)
+    found = [Line(ln.omega, ln.amplitude, ln.kurtosis, ln.ratio, ln.blocks, ln.test) for ln in screened.lines]
+    doubtful = list(screened.doubtful)
+    t = np.arange(y.shape[1]) * dt
+    for i in np.flatnonzero(zeta_abs < ZETA):
+        close = max(tol, 1e-3 * omega[i])
+        near = [ln for ln in found if abs(ln.omega - omega[i]) <= close]
+        if near:
+            drop[i] = True
+            near[0].test, near[0].zeta = "kurtosis+damping", float(zeta[i])
+            continue
+        line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close), None)
+        if line is None:
+            amplitude = fit(y, float(omega[i]), t)
+            kappa, used = kurtosis(y, float(omega[i]), dt, BLOCKS[1], amplitude, np.mean(y**2, axis=1))
+            line = Line(float(omega[i]), amplitude, kappa, float("nan"), used)
+        else:
+            doubtful.remove(line)
+        if line.kurtosis < DOUBTFUL:
+            drop[i] = True
+            found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks,
+                              "kurtosis+damping", float(zeta[i])))
+    damped = ~drop
+    for ln in doubtful:
+        if not np.any(np.abs(ln.omega - omega[damped]) < SKIRT * np.abs(zeta[damped]) * omega[damped] + tol):
+            found.append(ln)
+    return drop, sorted(found, key=lambda x: x.omega)
+
+
+def on_modes(found: list[Line], omega: np.ndarray, zeta: np.ndarray) -> None:
+    """Mark each harmonic inside a reported mode's half-power band
+    ``|omega_h - omega_r| < zeta_r omega_r`` with that mode's ``omega`` (rad/s)."""
+    for ln in found:
+        inside = np.abs(ln.omega - omega) < np.abs(zeta) * omega
+        ln.on_mode = float(omega[inside][np.argmin(np.abs(ln.omega - omega[inside]))]) if inside.any() else None
