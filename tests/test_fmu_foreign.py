@@ -205,3 +205,27 @@ def test_model_exchange_matches_the_exact_response(tmp_path, fmus):
                  check_step="off")
     y = channel(out, "displacement_1_x")
     assert np.abs(y - Y0 - exact(0.001, y.size)[:, 0]).max() < 1e-6 * 1.0 / (M * OMEGA)
+
+
+# ---- the growth rule on its own ------------------------------------------------------
+def test_polynomial_growth_passes_and_exponential_growth_fails():
+    """t^4 from rest under a constant force (about 2^4 over the latter half)
+    is a stable structure's; exp(5 t) over 4 s (exp(10) over the latter half) is not."""
+    from structbench.harness.output_check import check_output
+
+    t = np.arange(4001) * 1e-3
+    force = np.ones((t.size, 1))
+    check_output({"displacement_1_x": 1e-3 + t**4}, force, 1e-3)
+    # blocks of 0.2 s; block m = 1 + (j - 1) // 2 peaks at exp(5 (0.2 (m + 1) - 0.001)) - 1, so block
+    # j = 14 (m = 7) is the first over 1e3 times; its first sample beyond: log1p(1e3 expm1(5 x 1.599)) / 5
+    t_bad = np.ceil(np.log1p(1e3 * np.expm1(5 * 1.599)) / 5 / 1e-3) * 1e-3
+    with pytest.raises(SimulationError, match=rf"displacement_1_x diverges: .* at t = {t_bad:.9g} s"):
+        check_output({"displacement_1_x": 1e-3 + np.expm1(5 * t)}, force, 1e-3)
+
+
+def test_the_session_refuses_an_interface_the_fmu_lacks(fmus):
+    from structbench.harness.fmu_session import FmuSession
+    from structbench.models.errors import UserError
+
+    with pytest.raises(UserError, match="offers no model-exchange"):
+        FmuSession(fmus["cs"], interface="model-exchange")
