@@ -205,6 +205,8 @@ def test_model_exchange_matches_the_exact_response(tmp_path, fmus):
                  check_step="off")
     y = channel(out, "displacement_1_x")
     assert np.abs(y - Y0 - exact(0.001, y.size)[:, 0]).max() < 1e-6 * 1.0 / (M * OMEGA)
+    with h5py.File(out / "traces" / "impulse.h5") as f:
+        assert (f.attrs["fmu_interface"], f.attrs["relative_tolerance"]) == ("model-exchange", 1e-10)
 
 
 # ---- the growth rule on its own ------------------------------------------------------

@@ -137,9 +137,13 @@ def make_trace(bench: Bench, test: TestSpec, repetition: int, record: Record) ->
                      for c in test.channels)
     excitation = tuple(ChannelData(Channel("force", *d), record.commanded[Channel("force", *d).name],
                                    bench.locations[d[0]], 0.0, mode) for d in force_dofs(test.excitation))
+    opts = bench.options  # how the FMU ran, when not the default (default traces stay bit-identical)
+    driven = {} if (opts.interface, opts.substeps) == ("co-simulation", 1) else (
+        {"fmu_interface": opts.interface, "substeps": opts.substeps}
+        | ({"relative_tolerance": opts.relative_tolerance} if opts.interface == "model-exchange" else {}))
     return Trace(bench.campaign, test.name, test.group, repetition, bench.structure, bench.fmu_name,
                  bench.fmu_sha256, seed, test.dt, test.step, record.time, channels, excitation,
-                 _excitation_attrs(test.commanded_excitation(repetition)), _noise_attrs(test, seed))
+                 _excitation_attrs(test.commanded_excitation(repetition)), _noise_attrs(test, seed), driven)
 
 
 def run_test(rig: Rig, bench: Bench, test: TestSpec, repetitions: Sequence[int], record: Record | None = None,
