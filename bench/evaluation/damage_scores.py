@@ -5,7 +5,9 @@ Per run and parameter ``j``: the relative change from the prior,
 ``d_j = p_j / p0_j - 1`` (``p0_j`` the run's ``initial``), and its standard
 error ``s_j = sqrt(std_j^2 + std0_j^2) / p0_j`` (``std_j`` the run's
 ``std_error``, ``std0_j`` the baseline's, from the results' top-level
-``prior.std_errors``; without them the run's alone). A parameter is
+``prior.std_errors``; without them, or for a stepwise search
+(``--option localise=true``, whose errors are scaled by its residual
+misfit, which holds the baseline's error), the run's alone). A parameter is
 *flagged* when ``|d_j| > Z_FLAG s_j``; a parameter without a standard error
 (an undetermined combination) is never flagged.
 
@@ -46,7 +48,8 @@ def damage_run(run: dict[str, Any], prior_std: dict[str, float], declared: dict[
     value = np.array([p["value"] for p in params], dtype=float)
     initial = np.array([p.get("initial") if p.get("initial") is not None else np.nan for p in params], dtype=float)
     std = np.array([p["std_error"] if p.get("std_error") is not None else np.nan for p in params], dtype=float)
-    std0 = np.array([prior_std.get(lab, 0.0) for lab in labels], dtype=float)
+    stepwise = "localisation" in (run.get("details") or {})  # its errors hold the baseline's mismatch already
+    std0 = np.array([0.0 if stepwise else prior_std.get(lab, 0.0) for lab in labels], dtype=float)
     change = value / initial - 1.0
     sigma = np.sqrt(std**2 + std0**2) / np.abs(initial)
     z = change / sigma

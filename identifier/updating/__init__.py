@@ -150,6 +150,7 @@ from . import data as modal_data
 from .data import ModalData
 from .residuals import Residuals
 from .sensitivity import AffineModel
+from .localise import stepwise
 from .solve import FLOOR, choose_weight, errors, fit, identifiability, min_norm
 
 __all__ = ["ModalData", "identify", "update", "DEFAULTS", "REGULARISATION"]
@@ -158,7 +159,8 @@ REGULARISATION = ("auto", "discrepancy", "gcv", "none")
 SEARCH_TOL = 1e-6  # tolerance of the searches from the starts; the polish then uses ``tol``
 DEFAULTS: dict[str, Any] = {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3,
                             "seed": 0, "regularisation": "auto", "rank_tol": 1e-6, "shape_std": None,
-                            "modes": None, "parameters": None, "max_nfev": 200, "tol": 1e-10}
+                            "modes": None, "parameters": None, "max_nfev": 200, "tol": 1e-10,
+                            "localise": False, "level": 0.01}
 NEEDED = ("model updating needs identified modal data: --option modal=FILE with a modal results file "
           "(DIR/results/modal.json from `structbench identify DIR --method modal`) or a modal-data file "
           "(docs/modal-data-format.md)")
@@ -202,7 +204,7 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
            bounds: Sequence[float] = (-0.9, 3.0), starts: int = 1, scatter: float = 0.3, seed: int = 0,
            regularisation: str | float = "auto", rank_tol: float = 1e-6, shape_std: float | None = None,
            modes: Sequence[int] | None = None, parameters: Sequence[str] | None = None,
-           max_nfev: int = 200, tol: float = 1e-10,
+           max_nfev: int = 200, tol: float = 1e-10, localise: bool = False, level: float = 0.01,
            x0: Sequence[Sequence[float]] | None = None, repetition: int = 0,
            tests: Sequence[str] = ()) -> Identification:
     """Update the prior ``model`` to the modal ``data`` (see the module
@@ -211,7 +213,9 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     ``parameters``: labels (``stiffness[3]``) to update, of the chosen kinds
     (default: all of them; the others stay at the prior);
     ``x0``: explicit starting points in ``alpha`` (replace the prior and the
-    random draws)."""
+    random draws); ``localise``: instead of updating every parameter, select
+    the few that changed from the prior (a baseline) by forward stepwise
+    F tests at family level ``level`` (:mod:`.localise`)."""
     if not isinstance(model, Structure):
         raise IdentificationError(f"model updating needs a finite-element model; {model.name} is modal",
                                   field="model")
@@ -246,6 +250,9 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     if not -1.0 <= lo < 0.0 < hi:
         raise IdentificationError(f"bounds must satisfy -1 <= lower < 0 < upper, got {list(bounds)}", field="bounds")
     lower, upper = np.full(sel.size, lo), np.full(sel.size, hi)
+    if localise:
+        return _localised(model, sel, labels, affine, res, measured, lo, hi, float(level), tol, int(max_nfev),
+                          repetition, tests)
     prior = res(np.zeros(sel.size))
     s1 = float(np.linalg.norm(prior.J, 2)) if prior.J.size else 0.0
     floor = FLOOR * max(s1**2, 1e-300)
@@ -310,6 +317,38 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
         iterations=final.nfev, history=[p0.tolist(), [p.value for p in params]],
         misfit_history=[float(np.sqrt(prior.r @ prior.r)), float(np.sqrt(ev.r @ ev.r))],
         omega=omega.tolist(), eigenvalues=ev.lam.tolist(), details=details)
+
+
+def _localised(model: Structure, sel: np.ndarray, labels: list[str], affine: AffineModel, res: Residuals,
+               measured: ModalData, lo: float, hi: float, level: float, tol: float, max_nfev: int,
+               repetition: int, tests: Sequence[str]) -> Identification:
+    """The result of the stepwise change search (:mod:`.localise`)."""
+    if not 0 < level < 1:
+        raise IdentificationError(f"level must be in (0, 1), got {level}", field="level")
+    n_eff = res.n_res - res.n_scales
+    before = res(np.zeros(sel.size))
+    found = stepwise(res, labels, n_eff, lo, hi, level, tol, max_nfev)
+    ev = res(found.alpha)
+    p0 = affine.p0[sel]
+    params = [ParameterEstimate(lab, model.parameters[j].kind, model.parameters[j].unit, float(v0 * (1 + a)),
+                                None if np.isnan(s) else float(s * abs(v0)), float(v0))
+              for lab, j, v0, a, s in zip(labels, sel, p0, found.alpha, found.std)]
+    details = {
+        "data": measured.source, "modes": int(measured.lam.size), "sensors_dof": [list(d) for d in measured.dofs],
+        "n_data": res.n_res, "n_effective": n_eff, "parameters": labels, "alpha": found.alpha.tolist(),
+        "weights": {k: ("stated standard errors" if v else "unit (no standard errors stated)")
+                    for k, v in res.stated.items()},
+        "std_errors": "stepwise: s^2 (J_S^T J_S)^-1 of the selected changes, s^2 = misfit / (n_eff - |S|); "
+                      "null where not selected",
+        "misfit": found.cost, "dof": n_eff - len(found.selected), "pairs": (ev.pairs + 1).tolist(),
+        "mac": ev.mac.tolist(), "mode_switches": res.switches,
+        "localisation": {"level": level, "selected": [labels[j] for j in found.selected], "steps": found.steps},
+    }
+    return Identification(
+        method="updating", structure=model.name, repetition=repetition, tests=list(tests), status="converged",
+        message="", parameters=params, iterations=found.nfev, history=[p0.tolist(), [p.value for p in params]],
+        misfit_history=[float(np.sqrt(before.r @ before.r)), float(np.sqrt(found.cost))],
+        omega=np.sqrt(np.clip(ev.lam, 0.0, None)).tolist(), eigenvalues=ev.lam.tolist(), details=details)
 
 
 def _modal_path(traces: Sequence[Any], given: str | None) -> Path:
