@@ -2,6 +2,12 @@
 stochastic subspace identification (SSI-cov) with automatic order selection.
 
 Steps (each its own module):
+0. harmonics (stationary records only, :mod:`identifier.modal.harmonics`):
+   spectral lines whose band-filtered response has the kurtosis of a
+   sinusoid (1.5, a random response's is 3) are subtracted from the
+   records; after step 3, SSI modes of near-zero damping at their orders
+   whose band kurtosis is low are dropped too. Both are listed in
+   ``details["harmonics"]``, never among the modes;
 1. lagged output covariances ``R_l = <y_{k+l} y_ref,k^T>``, l >= 1, summed per
    sample group by FFT (:mod:`identifier.modal.ssi.covariance`); white sensor noise
    only enters ``R_0``, which is not used. Lags 1 .. p + q - 1 with ``p`` block

@@ -12,37 +12,48 @@ added to the random response. Two established tests tell it from a mode
    ``rho = P_s / (P_s + P_g)``. The band-filtered response is evaluated
    through its complex envelope: the channels demodulated at ``omega``,
    ``z_c(b) = sum_j w_j y_c(t_bj) exp(-i omega t_bj)`` over ``K`` blocks
-   of Hann weights ``w`` (a filter ``K`` spectral lines of the record
-   wide), combined over the channels by the matched weights
-   ``conj(a_c) / sigma_c^2`` (``sigma_c^2``: the channel's random power
-   near ``omega``); ``kappa = 1.5 <|z|^4> / <|z|^2>^2``, the kurtosis of
-   ``Re(z e^(i omega t))`` averaged over the carrier;
-2. the damping ratio the SSI poles at ``omega`` give: near zero
-   (``|zeta| < ZETA``) at every model order the pole is stable at
-   (:mod:`identifier.modal`).
+   of Hann weights ``w`` (a band about ``K`` spectral lines ``2 pi / T``
+   of the record wide), combined over the channels by the matched weights
+   ``conj(a_c) / sigma_c^2`` (``a_c``: the fitted complex amplitude,
+   ``sigma_c^2``: the channel's power in the lines near ``omega``);
+   ``kappa = 1.5 <|z|^4> / <|z|^2>^2``, the kurtosis of ``Re(z e^(i omega
+   t))`` averaged over the carrier. A random response's estimate has the
+   standard error ``3 / sqrt(K)``; ``K`` is chosen per line to make the
+   drop ``1.5 rho^2`` largest against it (:func:`band_lines`);
+2. the damping ratio of the SSI poles there: near zero, the median
+   ``|zeta|`` over the model orders the pole is stable at under ``ZETA``
+   (:mod:`identifier.modal`; a real structure's modes are damped more).
 
-Candidates are the lines of the record's spectrum (:func:`detect`): local
-maxima of the Hann-windowed periodogram summed over the RMS-scaled
-channels that stand ``LINE`` times above its running median over
-``2 WINDOW + 1`` lines. Each line's frequency is refined (interpolation
-of the log spectrum, then a parabola through the windowed transform's
-power 0.05 lines either side), its complex amplitude per channel fitted
-by least squares and its kurtosis measured in a band of
-``K = clip(ratio / 8, 64, 1024)`` lines (``ratio``: the line over the
-median; fewer when the record is short: blocks of at least 8 samples and
-2 periods). A line of kurtosis under ``KURTOSIS`` is a harmonic; it is
-subtracted from the records before SSI, so that it takes no model order
-and biases no mode near it. A line of kurtosis under ``DOUBTFUL`` is a
-harmonic only when an SSI mode there has near-zero damping at every order.
+Candidates are the lines of each record's spectrum (:func:`detect`):
+local maxima of the Hann-windowed periodogram summed over the RMS-scaled
+channels that stand ``LINE`` times above the median of the lines 3 to
+``WINDOW`` either side. Each line's frequency is refined (interpolation of
+the log spectrum, then a parabola through the windowed transform's power
+0.05 lines either side), its complex amplitude per channel fitted by least
+squares and its band kurtosis measured. Then (:func:`screen`,
+:func:`confirm`):
+
+- kurtosis under ``KURTOSIS`` and ``SURE`` standard errors ``3 / sqrt(K)``
+  below 3: a harmonic (test ``kurtosis``), subtracted from the records
+  before SSI, so that it takes no model order and biases no mode near it;
+- an SSI mode of near-zero damping whose band kurtosis is under
+  ``DOUBTFUL`` (its line's) or, without a line there, under ``KURTOSIS``
+  (measured over up to ``BLOCKS[1]`` lines): a harmonic
+  (``kurtosis+damping``), dropped from the modes;
+- any other line of kurtosis under ``KURTOSIS`` that no damped SSI mode
+  explains (none within ``SKIRT`` half-power bandwidths ``zeta_r omega_r``
+  plus 1.5 lines): a harmonic too weak for SSI (``kurtosis``). A line
+  near a damped mode with less evidence is the random peak of that mode.
 
 Fails (misses the harmonic) when its line does not stand ``LINE`` times
-above the random response near it (a weak harmonic on a mode's peak), or
-when the band of ``K`` lines holds as much random power as the harmonic;
-takes a mode for a harmonic only when the mode's peak is a few lines wide
-(``zeta omega T`` of a few decay times, which the support tests reject
-anyway) and its kurtosis estimate falls under ``KURTOSIS`` by chance.
-Frequencies that drift over the record (a machine run up) are not lines
-and are not found.
+above the random response near it, or when the band the record allows
+holds as much random power as the harmonic (a weak harmonic on a mode's
+peak: there it is listed only when the kurtosis alone is sure); takes a
+random peak for a harmonic only when its kurtosis estimate falls under
+``KURTOSIS`` by chance away from every damped SSI mode. A mode of damping
+under ``ZETA`` whose band kurtosis falls under ``DOUBTFUL`` would be taken
+for a harmonic. Frequencies that drift over the record (a machine run up)
+are not lines and are not found; free decays are not searched.
 """
 from __future__ import annotations
 
@@ -51,12 +62,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
-LINE = 20.0  # least periodogram line over its running median
-WINDOW = 64  # lines each side of the running median
+LINE = 20.0  # least periodogram line over the median of its neighbours ...
+WINDOW = 64  # ... the lines 3 to WINDOW either side
 KURTOSIS = 2.0  # band kurtosis below this, and ...
 SURE = 3.0  # ... this many of a random response's standard errors 3 / sqrt(K) below 3: a harmonic
 DOUBTFUL = 2.6  # ... below this, a harmonic when SSI gives it near-zero damping, or no SSI mode is near
-SKIRT = 5.0  # a line within this many half-power bandwidths zeta omega of a damped SSI mode is its peak
+SKIRT = 2.0  # a line within this many half-power bandwidths zeta omega (and 3 lines) of a damped SSI mode is its peak
 ZETA = 0.003  # median |zeta| over the stable poles below this: near-zero damping
 MAX_LINES = 40  # lines tested per record (the strongest)
 BLOCKS = (64, 1024)  # band width in spectral lines: clip(ratio / 8, *BLOCKS)
@@ -83,7 +94,7 @@ class Line:
         a = np.abs(self.amplitude)
         return {"omega": self.omega, "frequency_hz": self.omega / (2 * np.pi), "amplitude": a.tolist(),
                 "amplitude_max": float(a.max()) if a.size else 0.0, "kurtosis": self.kurtosis,
-                "line_ratio": self.ratio, "band_lines": self.blocks, "zeta": self.zeta, "test": self.test,
+                "line_ratio": self.ratio if np.isfinite(self.ratio) else None, "band_lines": self.blocks, "zeta": self.zeta, "test": self.test,
                 "on_mode": self.on_mode}
 
 
@@ -176,7 +187,9 @@ def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
         return []
     X = _spectrum(y)
     P = np.sum(np.abs(X)**2, axis=0)
-    bg = median_filter(P, size=2 * WINDOW + 1, mode="nearest")
+    ring = np.ones(2 * WINDOW + 1, dtype=bool)
+    ring[WINDOW - 2:WINDOW + 3] = False
+    bg = median_filter(P, footprint=ring, mode="nearest")
     ratio = P / np.maximum(bg, 1e-300)
     peak = P >= maximum_filter1d(P, size=7, mode="nearest")
     k = np.flatnonzero(peak & (ratio >= LINE))
@@ -207,9 +220,9 @@ def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
 
 @dataclass
 class Screened:
-    """Records (per trace, (m, n)) less the harmonics found before SSI
-    (``lines``, kurtosis under ``KURTOSIS``), and the ``doubtful`` lines
-    (under ``DOUBTFUL``) that SSI's damping decides."""
+    """Records (per trace, (m, n)) less every line of kurtosis under
+    ``DOUBTFUL``; the ``lines`` that are harmonics for sure and the
+    ``doubtful`` ones that SSI's modes decide (:func:`confirm`)."""
 
     records: list[np.ndarray]
     lines: list[Line]
@@ -227,14 +240,15 @@ def _merge(found: list[Line], tol: float) -> list[Line]:
 
 def screen(records: list[np.ndarray], dt: float) -> Screened:
     """The lines of each stationary record (:func:`detect`); those of
-    kurtosis under ``KURTOSIS`` subtracted from it (module docstring)."""
+    kurtosis under ``DOUBTFUL`` subtracted from it, the ``sure`` ones
+    (kurtosis under ``KURTOSIS`` and ``SURE`` standard errors under 3) in
+    ``lines``, the others in ``doubtful`` (module docstring)."""
     cleaned, sure, doubtful = [], [], []
     for y in records:
-        found = detect(y, dt)
-        here = [ln for ln in found if ln.kurtosis < KURTOSIS and (3 - ln.kurtosis) * np.sqrt(ln.blocks) >= 3 * SURE]
-        sure += here
-        doubtful += [ln for ln in found if ln not in here and ln.kurtosis < DOUBTFUL]
-        cleaned.append(subtract(y, here, dt) if here else y)
+        found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL]
+        sure += [ln for ln in found if ln.kurtosis < KURTOSIS and (3 - ln.kurtosis) * np.sqrt(ln.blocks) >= 3 * SURE]
+        doubtful += [ln for ln in found if all(ln is not s for s in sure)]
+        cleaned.append(subtract(y, found, dt) if found else y)
     tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
     return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
 
@@ -245,18 +259,22 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
     ``|zeta|`` over each one's stable poles, ``zeta`` its median) are
     harmonics, and every harmonic found:
 
-    - the lines subtracted before SSI (test ``kurtosis``); an SSI mode left
-      there of near-zero damping is their residue and dropped too;
+    - the sure lines (test ``kurtosis``); an SSI mode left there of
+      near-zero damping is their residue and dropped too;
     - an SSI mode of near-zero damping at its orders (``zeta_abs < ZETA``)
-      whose band kurtosis is under ``DOUBTFUL`` (a doubtful line's there,
-      else measured in the cleaned records over ``BLOCKS[1]`` lines, where a
-      random response's is 3 within about 0.1): ``kurtosis+damping``;
-    - a doubtful line no SSI mode explains, i.e. none lies within
-      ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` of it: ``kurtosis``
-      (a harmonic too weak for SSI; a mode's peak is never that far from
-      its mode)."""
+      at a doubtful line, or else whose band kurtosis measured in the
+      cleaned records (over up to ``BLOCKS[1]`` lines) is under
+      ``KURTOSIS``: ``kurtosis+damping``;
+    - a doubtful line of kurtosis under ``KURTOSIS`` that no damped SSI mode
+      explains (``kurtosis``). A mode explains a line within ``SKIRT``
+      half-power bandwidths ``zeta_r omega_r`` (plus 1.5 lines) when its
+      bandwidth is under ``WINDOW`` spectral lines (``zeta_r omega_r T / pi``):
+      the running median does not follow so narrow a peak, whose random
+      spikes are lines. A broad mode's peak is smooth over ``WINDOW``
+      lines: a line on it is a harmonic on the mode."""
     y = max(screened.records, key=lambda r: r.shape[1])
-    tol = 4 * np.pi / (y.shape[1] * dt)
+    length = y.shape[1] * dt
+    tol = 4 * np.pi / length
     drop = np.zeros(omega.size, dtype=bool)
     found = [Line(ln.omega, ln.amplitude, ln.kurtosis, ln.ratio, ln.blocks, ln.test) for ln in screened.lines]
     doubtful = list(screened.doubtful)
@@ -269,20 +287,19 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             near[0].test, near[0].zeta = "kurtosis+damping", float(zeta[i])
             continue
         line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close), None)
-        if line is None:
+        if line is None:  # no spectral line: the kurtosis alone must be low
             amplitude = fit(y, float(omega[i]), t)
             kappa, used = kurtosis(y, float(omega[i]), dt, BLOCKS[1], amplitude, np.mean(y**2, axis=1))
             line = Line(float(omega[i]), amplitude, kappa, float("nan"), used)
         else:
             doubtful.remove(line)
-        if line.kurtosis < DOUBTFUL:
+        if line.kurtosis < (DOUBTFUL if np.isfinite(line.ratio) else KURTOSIS):
             drop[i] = True
             found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks,
                               "kurtosis+damping", float(zeta[i])))
-    damped = ~drop
-    for ln in doubtful:
-        if not np.any(np.abs(ln.omega - omega[damped]) < SKIRT * np.abs(zeta[damped]) * omega[damped] + tol):
-            found.append(ln)
+    narrow = ~drop & (np.abs(zeta) * omega * length / np.pi < WINDOW)
+    reach = SKIRT * np.abs(zeta[narrow]) * omega[narrow] + 1.5 * tol
+    found += [ln for ln in doubtful if ln.kurtosis < KURTOSIS and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
     return drop, sorted(found, key=lambda x: x.omega)
 
 
