@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from typing import Any
+
 from structbench import api
 
 HELP = ("predict the standard errors (Cramer-Rao bounds) a method will reach on a campaign's test; "
@@ -35,6 +37,53 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(doc, indent=1))
         return 0
-    from structbench.planning.report import table
     print("\n".join(table(doc)))
     return 0
+
+
+def _num(x: float | None, fmt: str = ".3g") -> str:
+    return "-" if x is None else format(x, fmt)
+
+
+def table(doc: dict[str, Any]) -> list[str]:
+    """Lines: a header, one row per parameter or mode (value, predicted standard
+    error and, after ``--verify``, the achieved one and their ratio), the layout."""
+    lines = [f"plan: {doc['method']} on test {doc['test']!r} of campaign {doc['campaign']} "
+             f"(planning model {doc['model']}); predicted standard errors (Cramer-Rao), SI units"]
+    ver = doc.get("verify")
+    if doc.get("layout"):
+        lay = doc["layout"]
+        lines.append(f"layout: {lay['chosen']} ({len(lay['sensors'])} of {lay['candidates']} candidates) -> "
+                     f"{lay['campaign']}")
+        for name, row in lay["layouts"].items():
+            lines.append(f"  {name:18s} log det F = {row['log_det']:10.4g}   median predicted omega std / omega = "
+                         f"{row['median_rel_omega_std']:.3g}   sensors: "
+                         + " ".join(f"{q[0]}_{n}_{d}" for n, d, q in row["sensors"]))
+    if doc["parameters"]:
+        extra = "   achieved      ratio" if ver else ""
+        lines.append(f"  {'parameter':16s} {'unit':6s} {'value':>11s} {'predicted std':>14s} {'rel':>9s}{extra}")
+        rows = ver["parameters"] if ver else [None] * len(doc["parameters"])
+        for p, v in zip(doc["parameters"], rows):
+            line = (f"  {p['label']:16s} {p['unit']:6s} {p['value']:11.5g} {p['predicted_std']:14.4g} "
+                    f"{p['predicted_std'] / abs(p['value']) if p['value'] else float('nan'):9.2e}")
+            if v is not None:
+                line += f" {_num(v['achieved_std'], '10.4g'):>10s} {_num(v['ratio'], '10.3f'):>10s}"
+            lines.append(line)
+    if doc["modes"]:
+        extra = "  achieved(omega, zeta)  ratios" if ver else ""
+        lines.append(f"  {'mode':>4s} {'omega rad/s':>12s} {'std':>10s} {'zeta':>8s} {'std':>10s}{extra}")
+        rows = ver["modes"] if ver else [None] * len(doc["modes"])
+        for i, (m, v) in enumerate(zip(doc["modes"], rows), start=1):
+            line = (f"  {i:4d} {m['omega']:12.6g} {m['predicted_omega_std']:10.3g} {m['zeta']:8.4f} "
+                    f"{m['predicted_zeta_std']:10.3g}")
+            if v is not None:
+                line += (f"  {_num(v['achieved_omega_std'])} {_num(v['achieved_zeta_std'])}  "
+                         f"{_num(v['omega_ratio'], '.2f')} {_num(v['zeta_ratio'], '.2f')}")
+            lines.append(line)
+    if doc.get("not_visible"):
+        lines.append("  not planned (too weak in this test): omega = "
+                     + ", ".join(f"{w:.4g}" for w in doc["not_visible"]) + " rad/s")
+    if ver:
+        lines.append(f"verify: {ver['runs']} Monte Carlo runs (seed {ver['seed']}); median achieved / predicted = "
+                     f"{_num(ver['median_ratio'], '.3f')}")
+    return lines

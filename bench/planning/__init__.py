@@ -6,7 +6,12 @@ One module per job: :mod:`.response` (noise-free responses from the
 planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
 frequencies and damping), :mod:`.layouts` (effective independence and
 D-optimal sensor layouts), :mod:`.campaign_files` (the campaign files a
-plan writes), :mod:`.verify` (``--verify``), :mod:`.report` (the table).
+plan writes), :mod:`.verify` (``--verify``); the command line prints the
+table (``structbench.cli.plan``).
+
+May import: models, the harness (campaigns, excitation; the planning model's
+responses), the least-squares regression of the identifier, and the API
+(``--verify`` runs the campaign and identifies through it).
 """
 from __future__ import annotations
 
