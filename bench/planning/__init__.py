@@ -26,6 +26,10 @@ from structbench.models.errors import UserError
 
 METHODS = ("least-squares", "modal")
 FORMAT = "structbench-plan"
+BOUNDS = {"least-squares": "Cramer-Rao of the regression (noise-free responses, the campaign's noise) plus the "
+                           "second-order errors-in-variables term: the spread of the bias-compensated estimator",
+          "modal": "Cramer-Rao of damped sinusoids in white noise: the spread of an efficient (maximum-likelihood) "
+                   "estimator; SSI-cov lands above it (1-5x in benchmarks/plan_accuracy.py)"}
 __all__ = ["METHODS", "plan"]
 
 
@@ -99,6 +103,7 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
         name, specs = _chosen_tests(loaded, name)
         say(f"layout: {document['layout']['chosen']} layout written to {run_file}")
     document |= (_least_squares if method == "least-squares" else _modal)(planning, specs)
+    document["bound"] = BOUNDS[method]
     if verify:
         from .verify import verify as run_verify
         document["verify"] = run_verify(run_file, name, method, verify, document,
