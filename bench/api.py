@@ -187,16 +187,17 @@ def write_junit(rows: Sequence[dict[str, Any]], path: str | Path, time: float = 
 
 
 def reproduce(out: str | Path = "out/reproduce", repetitions: int | None = 20, jobs: int | None = None,
-              progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+              progress: Callable[[str], None] | None = None, keep_traces: bool = False) -> dict[str, Any]:
     """The dissertation end to end: every case through FMUs, traces,
     identifiers and scoring into ``out``; writes ``summary.json`` and
     ``report.md`` (with figures) there and returns the summary. ``progress``
-    receives one line per stage. A second call resumes."""
+    receives one line per stage. Each case's trace files are deleted once it
+    is scored unless ``keep_traces`` (about 0.55 GB). A second call resumes."""
     from structbench.evaluation.report import write_report
     from structbench.evaluation.reproduce import run_all, summarize
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    scores = run_all(out, repetitions, jobs, progress or (lambda line: None))
+    scores = run_all(out, repetitions, jobs, progress or (lambda line: None), keep_traces)
     summary = summarize(scores)
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     write_report(out, summary, scores)

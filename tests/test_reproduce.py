@@ -6,7 +6,7 @@ import pytest
 
 from structbench import api
 from structbench.cli import main
-from structbench.evaluation.reproduce import (CAMPAIGNS, DONE, KEEP_TRACES, campaign_with_repetitions,
+from structbench.evaluation.reproduce import (CAMPAIGNS, DONE, campaign_with_repetitions,
                                               reproduction_campaign, run_case)
 from structbench.models.errors import UserError
 
@@ -122,14 +122,13 @@ def test_keep_traces_keeps_them(tmp_path):
 
 
 def test_the_cli_passes_keep_traces_on(reproduced, monkeypatch, capsys):
-    """``--keep-traces`` reaches the reproduction (through STRUCTBENCH_KEEP_TRACES) and nothing else."""
+    """``--keep-traces`` reaches api.reproduce as its ``keep_traces`` argument; the environment is untouched."""
     out, summary = reproduced
-    seen = []
-    monkeypatch.delenv(KEEP_TRACES, raising=False)
-    monkeypatch.setattr(api, "reproduce", lambda *args: seen.append(os.environ.get(KEEP_TRACES)) or summary)
+    seen, environment = [], dict(os.environ)
+    monkeypatch.setattr(api, "reproduce", lambda *args: seen.append(args[4]) or summary)
     assert main(["reproduce", "--out", str(out), "--keep-traces"]) == 0
     assert main(["reproduce", "--out", str(out)]) == 0
-    assert seen == ["1", None] and KEEP_TRACES not in os.environ
+    assert seen == [True, False] and dict(os.environ) == environment
     assert "ch3-m8 normalized RMS" in capsys.readouterr().out
 
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -12,7 +11,6 @@ from structbench import api
 
 from .progress import bar, interactive
 
-KEEP_TRACES = "STRUCTBENCH_KEEP_TRACES"  # the environment variable structbench.evaluation.reproduce reads
 HELP = "run every dissertation case through FMUs, harness, traces, identifiers and scoring; print and report"
 
 
@@ -43,17 +41,10 @@ def run(args: argparse.Namespace) -> int:
         shown.set_description_str(line.strip()[:60])
         shown.update(1)
 
-    kept = os.environ.get(KEEP_TRACES)
-    if args.keep_traces:  # read by the reproduction (structbench.api.reproduce takes no such argument)
-        os.environ[KEEP_TRACES] = "1"
     try:
-        summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr if shown is None else stage)
+        summary = api.reproduce(args.out, args.repetitions, args.jobs, _stderr if shown is None else stage,
+                                args.keep_traces)
     finally:
-        if args.keep_traces:
-            if kept is None:
-                os.environ.pop(KEEP_TRACES, None)
-            else:
-                os.environ[KEEP_TRACES] = kept
         if shown is not None:
             shown.close()
     if args.json:

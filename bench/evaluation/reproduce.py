@@ -188,7 +188,6 @@ def reproduction_campaign(name: str, repetitions: int | None) -> Campaign:
     return dataclasses.replace(base, tests=tests)
 
 
-KEEP_TRACES = "STRUCTBENCH_KEEP_TRACES"  # environment: "1" keeps the trace files (the CLI's --keep-traces)
 DONE = "reproduced.json"  # in OUT/<case>/ once the case is complete: what it ran with
 LANES = 2  # cases at the same time; ORDER: longest first, so that the last to start is short
 ORDER = ("ch4-case2", "ch5-damped", "ch3", "ch4-case1", "ch5-beam", "ch3-damped", "ch5-membrane")
@@ -244,17 +243,15 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
 
 
 def run_all(out: Path, repetitions: int | None, jobs: int | None, say: Callable[[str], None],
-            keep_traces: bool | None = None) -> dict[str, dict[str, Any]]:
+            keep_traces: bool = False) -> dict[str, dict[str, Any]]:
     """Every case (:func:`run_case`); returns scores per campaign. ``jobs``
     processes in all (default one per core): two cases at a time, each with
     half of them (under 2: in the case's own process); 0 or 1: one case after
-    the other here. ``keep_traces``: default ``STRUCTBENCH_KEEP_TRACES``."""
+    the other here. ``keep_traces``: keep every case's trace files."""
     missing = [n for n in NAMES if not (CAMPAIGNS / f"{n}.toml").is_file()]
     if missing:
         raise UserError(f"campaign files {missing} not found in {CAMPAIGNS} (a broken installation)",
                         field="campaigns")
-    if keep_traces is None:
-        keep_traces = os.environ.get(KEEP_TRACES, "0").strip() not in ("", "0")
     total = (os.cpu_count() or 1) if jobs is None else jobs
     if total <= 1:
         return {name: run_case(name, out, repetitions, jobs, keep_traces, say) for name in NAMES}
