@@ -6,6 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
+from structbench.identifier.io import hdf5_reads
 from structbench.identifier.io.hdf5_reads import attributes, decoded, samples
 from structbench.identifier.io.traces import read_trace
 from identify_synth import cantilever_trace
