@@ -170,7 +170,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     mo = min(m, max(ROW_CHANNELS, r))
     refs = reference_channels(m, r)
     decay = all(is_free_decay(y) for y in records)
-    screened = periodic.Screened(records, [], []) if decay else periodic.screen(records, dt)
+    free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
+    screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt)  # a free response
+    # of an undamped structure is a sum of sinusoids: only stationary records are searched for harmonics
     records = screened.records
     f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
     p, q = block_sizes(shortest, m, r, mo, max_order, dt, decay, f_low, block_rows)
@@ -215,7 +217,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         periodic_modes, found = periodic.confirm(
             screened, dt, np.array([md.omega for md in modes]),
             np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),
-            np.array([md.zeta for md in modes])) if not decay else (np.zeros(len(modes), bool), [])
+            np.array([md.zeta for md in modes])) if not free else (np.zeros(len(modes), bool), [])
         modes = [md for md, h in zip(modes, periodic_modes) if not h]
         fits = [fit[md.order, md.index] for md in modes]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
@@ -225,7 +227,6 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
             if replicates else (np.full(len(modes), np.nan), np.full(len(modes), np.nan), np.zeros(len(modes)))
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
-    free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
     length = (max if free else sum)(y.shape[1] for y in records) * dt  # s: see support.record_bias
     omega_se, zeta_se = with_bias(omega, omega_se, zeta_se, length, free, _scatter(modes, by_order))
     verdict = judge(omega, zeta, omega_se, zeta_se, missed if drop_unrepeated else np.zeros(len(modes)),

@@ -30,29 +30,34 @@ channels that stand ``LINE`` times above the median of the lines 3 to
 ``WINDOW`` either side. Each line's frequency is refined (interpolation of
 the log spectrum, then a parabola through the windowed transform's power
 0.05 lines either side), its complex amplitude per channel fitted by least
-squares and its band kurtosis measured. Then (:func:`screen`,
+squares and its band kurtosis ``kappa`` measured, with ``z = (3 - kappa)
+sqrt(K) / 3``, its drop below a random response's in standard errors.
+Lines of ``kappa < DOUBTFUL`` are candidates. Then (:func:`screen`,
 :func:`confirm`):
 
-- kurtosis under ``KURTOSIS`` and ``SURE`` standard errors ``3 / sqrt(K)``
-  below 3: a harmonic (test ``kurtosis``), subtracted from the records
-  before SSI, so that it takes no model order and biases no mode near it;
-- an SSI mode of near-zero damping whose band kurtosis is under
-  ``DOUBTFUL`` (its line's) or, without a line there, under ``KURTOSIS``
-  (measured over up to ``BLOCKS[1]`` lines): a harmonic
+- ``z >= SURE``: a harmonic (test ``kurtosis``), subtracted from the
+  records before SSI, so that it takes no model order and biases no mode
+  near it (subtracting a line that is a mode's own random peak instead
+  would notch the mode: the weaker candidates are not subtracted);
+- an SSI mode of near-zero damping at a candidate line of ``z >= LIKELY``,
+  or else whose band kurtosis measured in the cleaned records (up to
+  ``BLOCKS[1]`` lines) has ``z >= SURE``: a harmonic
   (``kurtosis+damping``), dropped from the modes;
-- any other line of kurtosis under ``KURTOSIS`` that no damped SSI mode
-  explains (none within ``SKIRT`` half-power bandwidths ``zeta_r omega_r``
-  plus 1.5 lines): a harmonic too weak for SSI (``kurtosis``). A line
-  near a damped mode with less evidence is the random peak of that mode.
+- any other candidate line of ``z >= LIKELY`` that no narrow damped SSI
+  mode explains (none within ``SKIRT`` half-power bandwidths ``zeta_r
+  omega_r`` plus 1.5 lines whose bandwidth ``zeta_r omega_r T / pi`` is
+  under ``WINDOW`` lines: the running median does not follow so narrow a
+  peak, whose random spikes are lines; a broad mode's peak is smooth over
+  ``WINDOW`` lines, and a line on it is a harmonic on the mode): a
+  harmonic (``kurtosis``).
 
 Fails (misses the harmonic) when its line does not stand ``LINE`` times
 above the random response near it, or when the band the record allows
 holds as much random power as the harmonic (a weak harmonic on a mode's
-peak: there it is listed only when the kurtosis alone is sure); takes a
-random peak for a harmonic only when its kurtosis estimate falls under
-``KURTOSIS`` by chance away from every damped SSI mode. A mode of damping
-under ``ZETA`` whose band kurtosis falls under ``DOUBTFUL`` would be taken
-for a harmonic. Frequencies that drift over the record (a machine run up)
+peak); takes a random peak for a harmonic when its kurtosis estimate
+falls ``LIKELY`` standard errors under 3 by chance away from every narrow
+damped SSI mode (about one line in ten such peaks). A mode of damping
+under ``ZETA`` at a line of ``z >= LIKELY`` would be taken for a harmonic. Frequencies that drift over the record (a machine run up)
 are not lines and are not found; free decays are not searched.
 """
 from __future__ import annotations
@@ -64,10 +69,10 @@ from scipy.ndimage import maximum_filter1d, median_filter
 
 LINE = 20.0  # least periodogram line over the median of its neighbours ...
 WINDOW = 64  # ... the lines 3 to WINDOW either side
-KURTOSIS = 2.0  # band kurtosis below this, and ...
-SURE = 3.0  # ... this many of a random response's standard errors 3 / sqrt(K) below 3: a harmonic
-DOUBTFUL = 2.6  # ... below this, a harmonic when SSI gives it near-zero damping, or no SSI mode is near
-SKIRT = 2.0  # a line within this many half-power bandwidths zeta omega (and 3 lines) of a damped SSI mode is its peak
+SURE = 3.0  # band kurtosis this many of a random response's standard errors 3 / sqrt(K) under 3: a harmonic
+LIKELY = 1.25  # ... this many: a harmonic unless a narrow damped SSI mode explains the line
+DOUBTFUL = 2.6  # a line of band kurtosis below this is a candidate
+SKIRT = 2.0  # a line within this many half-power bandwidths zeta omega (+1.5 lines) of a narrow damped mode is its peak
 ZETA = 0.003  # median |zeta| over the stable poles below this: near-zero damping
 MAX_LINES = 40  # lines tested per record (the strongest)
 BLOCKS = (64, 1024)  # band width in spectral lines: clip(ratio / 8, *BLOCKS)
@@ -88,6 +93,11 @@ class Line:
     zeta: float | None = None
     on_mode: float | None = None
     extra: dict = field(default_factory=dict)
+
+    @property
+    def z(self) -> float:
+        """The kurtosis's drop below 3 in a random response's standard errors ``3 / sqrt(K)``."""
+        return float((3 - self.kurtosis) * np.sqrt(self.blocks) / 3) if np.isfinite(self.kurtosis) else 0.0
 
     def entry(self) -> dict:
         """The results' ``details.harmonics`` entry (docs/results-format.md)."""
@@ -220,9 +230,8 @@ def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
 
 @dataclass
 class Screened:
-    """Records (per trace, (m, n)) less every line of kurtosis under
-    ``DOUBTFUL``; the ``lines`` that are harmonics for sure and the
-    ``doubtful`` ones that SSI's modes decide (:func:`confirm`)."""
+    """Records (per trace, (m, n)) less the ``lines`` that are harmonics
+    for sure; the ``doubtful`` ones SSI's modes decide (:func:`confirm`)."""
 
     records: list[np.ndarray]
     lines: list[Line]
@@ -239,16 +248,16 @@ def _merge(found: list[Line], tol: float) -> list[Line]:
 
 
 def screen(records: list[np.ndarray], dt: float) -> Screened:
-    """The lines of each stationary record (:func:`detect`); those of
-    kurtosis under ``DOUBTFUL`` subtracted from it, the ``sure`` ones
-    (kurtosis under ``KURTOSIS`` and ``SURE`` standard errors under 3) in
-    ``lines``, the others in ``doubtful`` (module docstring)."""
+    """The lines of each stationary record (:func:`detect`) of kurtosis
+    under ``DOUBTFUL``: the ``sure`` ones (``z >= SURE``) subtracted from
+    it and in ``lines``, the others in ``doubtful`` (module docstring)."""
     cleaned, sure, doubtful = [], [], []
     for y in records:
         found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL]
-        sure += [ln for ln in found if ln.kurtosis < KURTOSIS and (3 - ln.kurtosis) * np.sqrt(ln.blocks) >= 3 * SURE]
-        doubtful += [ln for ln in found if all(ln is not s for s in sure)]
-        cleaned.append(subtract(y, found, dt) if found else y)
+        here = [ln for ln in found if ln.z >= SURE]
+        sure += here
+        doubtful += [ln for ln in found if all(ln is not s for s in here)]
+        cleaned.append(subtract(y, here, dt) if here else y)
     tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
     return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
 
@@ -262,16 +271,11 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
     - the sure lines (test ``kurtosis``); an SSI mode left there of
       near-zero damping is their residue and dropped too;
     - an SSI mode of near-zero damping at its orders (``zeta_abs < ZETA``)
-      at a doubtful line, or else whose band kurtosis measured in the
-      cleaned records (over up to ``BLOCKS[1]`` lines) is under
-      ``KURTOSIS``: ``kurtosis+damping``;
-    - a doubtful line of kurtosis under ``KURTOSIS`` that no damped SSI mode
-      explains (``kurtosis``). A mode explains a line within ``SKIRT``
-      half-power bandwidths ``zeta_r omega_r`` (plus 1.5 lines) when its
-      bandwidth is under ``WINDOW`` spectral lines (``zeta_r omega_r T / pi``):
-      the running median does not follow so narrow a peak, whose random
-      spikes are lines. A broad mode's peak is smooth over ``WINDOW``
-      lines: a line on it is a harmonic on the mode."""
+      at a doubtful line of ``z >= LIKELY``, or else whose band kurtosis measured in the
+      cleaned records (over up to ``BLOCKS[1]`` lines) has ``z >= SURE``:
+      ``kurtosis+damping``;
+    - a doubtful line of ``z >= LIKELY`` that no narrow damped SSI mode
+      explains (module docstring): ``kurtosis``."""
     y = max(screened.records, key=lambda r: r.shape[1])
     length = y.shape[1] * dt
     tol = 4 * np.pi / length
@@ -293,13 +297,13 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             line = Line(float(omega[i]), amplitude, kappa, float("nan"), used)
         else:
             doubtful.remove(line)
-        if line.kurtosis < (DOUBTFUL if np.isfinite(line.ratio) else KURTOSIS):
+        if line.z >= (LIKELY if np.isfinite(line.ratio) else SURE):
             drop[i] = True
             found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks,
                               "kurtosis+damping", float(zeta[i])))
     narrow = ~drop & (np.abs(zeta) * omega * length / np.pi < WINDOW)
     reach = SKIRT * np.abs(zeta[narrow]) * omega[narrow] + 1.5 * tol
-    found += [ln for ln in doubtful if ln.kurtosis < KURTOSIS and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
+    found += [ln for ln in doubtful if ln.z >= LIKELY and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
     return drop, sorted(found, key=lambda x: x.omega)
 
 
