@@ -16,6 +16,7 @@ from structbench.evaluation.modal_scores import harmonic_scores, modal_scores
 from structbench.harness.campaign import CampaignError, load_campaign
 from structbench.harness.disturbance import Disturbance, truth_table
 from structbench.harness.excitation import RandomForce, forces
+from structbench.harness.truth import truth
 from structbench.identifier.modal import identify
 from structbench.identifier.modal.harmonics import fit, kurtosis
 
@@ -116,7 +117,8 @@ amplitudes = [0.5, 0.2, 0.1]
 def test_disturbance_excitation_sums_seeded_sinusoids_and_enters_the_truth(tmp_path):
     path = tmp_path / "hum.toml"
     path.write_text(CAMPAIGN)
-    test = load_campaign(path).tests[0]
+    campaign = load_campaign(path)
+    test = campaign.tests[0]
     random, hum = test.excitation
     assert isinstance(random, RandomForce) and isinstance(hum, Disturbance)
     assert hum.omegas == (2.5, 7.5, 12.5) and hum.amplitudes == (0.5, 0.2, 0.1)
@@ -129,6 +131,7 @@ def test_disturbance_excitation_sums_seeded_sinusoids_and_enters_the_truth(tmp_p
     table = truth_table([test])["ambient"]
     assert [row["omega"] for row in table] == [2.5, 7.5, 12.5] and table[1]["amplitude"] == 0.2
     assert table[2]["frequency_hz"] == pytest.approx(12.5 / (2 * np.pi)) and table[0]["node"] == 4
+    assert truth(campaign)["harmonics"] == {"ambient": table}
     bad = CAMPAIGN.replace("base = 2.5", "base = 2.5\nomegas = [1.0]")
     path.write_text(bad)
     with pytest.raises(CampaignError, match="either omegas"):
