@@ -232,8 +232,8 @@ def main(argv: list[str] | None = None) -> None:
         rows.append(row)
         if args.verbose:
             d = row["disturbed"]
-            print(seed, [(round(t["omega"], 3), round(t["ratio"], 2), t["on_mode"] is not None) for t in row["harmonics"]],
-                  d.get("harmonic", d.get("error")), flush=True)
+            truth = [(round(t["omega"], 3), round(t["ratio"], 2), t["on_mode"] is not None) for t in row["harmonics"]]
+            print(seed, truth, d.get("harmonic", d.get("error")), flush=True)
     print(f"{args.structure}, seeds {args.first}-{args.first + args.seeds - 1}, uncertainty {args.uncertainty}")
     print(summary(rows))
 
