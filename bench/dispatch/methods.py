@@ -75,9 +75,10 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            model="optional"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
+            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
-           {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY},
+           {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY,
+            "input": modal.input_output.INPUTS},
            model="optional"),
     Method("updating", updating.identify, dict(updating.DEFAULTS),
            "finite-element model updating from identified modes (a modal results or modal-data file, "

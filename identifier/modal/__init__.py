@@ -91,6 +91,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, with_bias
 from . import harmonics as periodic
+from . import input_output
 from .support import rejected as support_rejected
 from ..io.traces import Channel, Trace
 
@@ -145,7 +146,7 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
              min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto",
-             uncertainty: str = "jackknife") -> Identification:
+             uncertainty: str = "jackknife", input: str = "auto") -> Identification:
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
@@ -155,7 +156,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     ``off`` skips the jackknife (about half the time): no standard errors
     (NaN) and no check that replicates find each mode again. Changes nothing
     outside its own work unless the process opted in to tuning
-    (:mod:`identifier.modal.runtime`)."""
+    (:mod:`identifier.modal.runtime`). ``input``: ``auto``, ``on`` or ``off``, the measured force scales
+    the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``)."""
+    input_output.check(input)
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
@@ -249,7 +252,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     periodic.on_modes(found, omega, zeta)
     modes = [modes[i] if i >= 0 else None for i in source]  # -1: found by the free-decay fit
     fits = [fits[i] if i >= 0 else None for i in source]
-    return Identification(
+    return input_output.attach(traces, channels, input, Identification(
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
         omega=omega.tolist(), eigenvalues=(omega**2).tolist(), mode_shapes=real_shapes(shapes).T.tolist(),
@@ -267,7 +270,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
                  "warnings": _warnings(free, f_low, length),
-                 "stabilisation": _diagram(poles, flags)})
+                 "stabilisation": _diagram(poles, flags)}))
 
 
 def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,195 @@
+"""Pole-residue fit of measured FRFs and the unit-modal-mass scaling of its residues.
+
+Model (time dependence ``exp(+i omega t)``, docs of :mod:`identifier.frf`).
+A linear structure ``M x'' + C x' + K x = f`` with modal poles
+``lambda_r = -zeta_r omega_r + i omega_d,r`` (``omega_d = omega sqrt(1 -
+zeta^2)``) has the displacement receptance
+
+    H_ij(s) = sum_r R_r,ij / (s - lambda_r) + conj(R_r,ij) / (s - conj(lambda_r)),
+    R_r,ij = psi_r,i psi_r,j / (2 i omega_d,r)  (proportional damping),
+
+with ``psi_r`` the mode shape scaled to unit modal mass (``psi^T M psi =
+1``); with a shape ``phi_r`` of modal mass ``m_r = phi^T M phi`` this is
+``R = phi_i phi_j / (2 i omega_d m_r)``. A sensor of velocity or
+acceleration multiplies by ``s`` or ``s^2``.
+
+The traces hold the force constant over each sample (zero-order hold), so
+the FRF estimated from them is that of the sampled system, ``z = exp(i omega
+dt)``. Each pole's term is then exactly (displacement, ``p = exp(lambda dt)``)
+
+    R (p - 1) / (lambda (z - p)),
+
+and ``lambda^k`` times that for a sensor of the ``k``-th derivative (the
+polynomial parts ``R s``, ``R lambda`` summed over all modes vanish or are
+a constant the residual terms take). The coefficients fitted are therefore
+the displacement residues ``R_r,i`` whatever each sensor measures. Modes
+outside the band enter through real residual terms per channel, each times
+the hold's factor ``(1 - exp(-i omega dt)) / (i omega dt)``: ``(i omega)^e``
+for ``e`` in ``{0, k, k - 2}`` (stiffness-like, the sensor's own and
+mass-like).
+
+Fit (:func:`fit`): weighted least squares of the residues (linear) for
+given poles; :func:`refine` moves the poles too (variable projection: the
+residues are eliminated, the poles' ``omega`` and ``zeta`` fitted by
+Gauss-Newton). Weights ``1 / (|H| eps)`` with ``eps`` the FRF's normalized
+random error from its coherence (floored at ``EPS_FLOOR``): lines of low
+coherence count little.
+
+Scaling (:func:`scale`): from the driving-point residue (the response
+collocated with the force, index ``j``) ``psi_j^2 = 2 i omega_d R_jj``, then
+``psi_i = 2 i omega_d R_ij / psi_j``. This needs the driving point: without
+a response at the force's DOF only the products ``psi_i psi_j`` of the
+unmeasured ``psi_j`` are known and no scale follows. A driving-point
+residue whose ``psi_j^2`` is not positive-real within ``PHASE_TOL`` (a wrong
+sign, a mode the force barely excites, noise) gives no scale for that mode.
+
+Assumptions and failures: linear time-invariant, the poles of the band
+known (a mode missing from them biases its neighbours' residues); light,
+near-proportional damping (the residues of general viscous damping are
+``psi psi^T / a_r`` with a complex ``a_r``; the shapes are then complex and
+their scale approximate); the force held over each sample (``step == dt``;
+a finer hold changes the exact terms slightly); FRF leakage (Welch segments
+short against ``1 / (zeta omega)``) biases the residues low.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+EPS_FLOOR = 1e-3  # least normalized random error of a line (noise-free data: coherence 1)
+PHASE_TOL = 0.35  # rad: largest phase of a driving-point psi_j^2 that still gives a scale
+ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
+
+
+@dataclass
+class Fit:
+    """A pole-residue fit: ``poles`` (k,) complex rad/s, ``residues`` (c, k)
+    complex displacement residues (m/N/s per mode and channel), ``residual``
+    (c, e) real residual-term coefficients, ``model`` (c, m) the fitted FRF,
+    ``misfit`` (c,) the weighted RMS residual (1: at the noise level)."""
+
+    poles: np.ndarray
+    residues: np.ndarray
+    residual: np.ndarray
+    model: np.ndarray
+    misfit: np.ndarray
+
+
+def poles_of(omega: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """``lambda = -zeta omega + i omega sqrt(1 - zeta^2)`` (k,) from rad/s and damping ratios."""
+    omega, zeta = np.asarray(omega, float), np.asarray(zeta, float)
+    return -zeta * omega + 1j * omega * np.sqrt(np.clip(1.0 - zeta**2, 1e-12, None))
+
+
+def _design(w: np.ndarray, dt: float, poles: np.ndarray, order: int) -> np.ndarray:
+    """Real design (2m, 2k + e) of one channel of derivative ``order`` at
+    ``w`` (m,) rad/s: per pole the columns of ``Re R`` and ``Im R``, then the
+    residual terms; rows: real parts, then imaginary parts."""
+    z = np.exp(1j * w * dt)[:, None]
+    lam = poles[None, :]
+    p = np.exp(lam * dt)
+    g = lam**order * (p - 1.0) / (lam * (z - p))  # R's term
+    gc = np.conj(lam)**order * (np.conj(p) - 1.0) / (np.conj(lam) * (z - np.conj(p)))  # conj(R)'s term
+    hold = (1.0 - np.exp(-1j * w * dt)) / (1j * w * dt)
+    powers = sorted({0, order, order - 2})
+    extra = np.stack([hold * (1j * w) ** e for e in powers], axis=1)
+    cols = np.hstack([g + gc, 1j * (g - gc), extra])  # R = a + i b: a (g + gc) + b i (g - gc)
+    return np.vstack([cols.real, cols.imag])
+
+
+def fit(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
+        orders: np.ndarray) -> Fit:
+    """Residues of ``H`` (c, m) at ``w`` (m,) rad/s for fixed ``poles`` (k,);
+    ``sigma`` (c, m) the standard deviation of each line (``inf``: unused);
+    ``orders`` (c,) each channel's derivative (0, 1, 2). Batched over channels."""
+    k = poles.size
+    by_order = {int(o): _design(w, dt, poles, int(o)) for o in set(orders.tolist())}
+    A = np.zeros((len(orders), 2 * w.size, 2 * k + 3))  # residual columns padded to 3
+    for i, o in enumerate(orders):
+        A[i, :, :by_order[int(o)].shape[1]] = by_order[int(o)]
+    P = np.array([by_order[int(o)].shape[1] for o in orders])
+    inv = 1.0 / np.concatenate([sigma, sigma], axis=1)  # (c, 2m)
+    b = np.concatenate([H.real, H.imag], axis=1)
+    b = np.where(np.isfinite(b), b, 0.0)
+    Aw, bw = A * inv[:, :, None], b * inv
+    norms = np.linalg.norm(Aw, axis=1)
+    norms[norms == 0] = 1.0
+    coef = (np.linalg.pinv(Aw / norms[:, None, :], rcond=1e-12) @ bw[:, :, None])[:, :, 0] / norms
+    model2 = np.einsum("cnp,cp->cn", A, coef)
+    m = w.size
+    model = model2[:, :m] + 1j * model2[:, m:]
+    used = np.isfinite(inv) & (inv > 0)
+    misfit = np.sqrt(np.sum(((bw - model2 * inv) ** 2) * used, axis=1) / np.maximum(used.sum(axis=1) - P, 1))
+    return Fit(poles, coef[:, 0:2 * k:2] + 1j * coef[:, 1:2 * k:2], coef[:, 2 * k:], model, misfit)
+
+
+def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
+           orders: np.ndarray, max_move: float = 0.05) -> tuple[Fit, bool]:
+    """:func:`fit` with the poles' ``omega`` and ``zeta`` fitted too
+    (variable projection, trust-region Gauss-Newton from ``poles``). Returns
+    the fit and whether the refined poles were kept: they are not when the
+    solver fails or moves a frequency by more than ``max_move`` (relative)
+    or a damping ratio out of (0, 0.5); the fit at ``poles`` is returned then."""
+    omega0, zeta0 = np.abs(poles), -poles.real / np.abs(poles)
+    x0 = np.concatenate([np.ones_like(omega0), np.maximum(zeta0, 1e-4)])
+    k = poles.size
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        f = fit(w, H, sigma, dt, poles_of(omega0 * x[:k], x[k:]), orders)
+        r = (np.concatenate([(H - f.model).real, (H - f.model).imag], axis=1)
+             / np.concatenate([sigma, sigma], axis=1))
+        return np.where(np.isfinite(r), r, 0.0).ravel()
+
+    start = fit(w, H, sigma, dt, poles, orders)
+    try:
+        sol = least_squares(residual, x0, x_scale=np.concatenate([np.full(k, 1e-3), 0.1 * x0[k:]]),
+                            max_nfev=60 * (k + 1))
+    except (ValueError, np.linalg.LinAlgError):
+        return start, False
+    ok = sol.success and np.all(np.abs(sol.x[:k] - 1.0) <= max_move) and np.all((sol.x[k:] > 0) & (sol.x[k:] < 0.5))
+    if not ok:
+        return start, False
+    return fit(w, H, sigma, dt, poles_of(omega0 * sol.x[:k], sol.x[k:]), orders), True
+
+
+@dataclass
+class Scaled:
+    """Unit-modal-mass shapes ``psi`` (c, k) complex (NaN for a mode without
+    scale; per sqrt(kg), in displacement at each sensor), ``modal_mass`` (k,)
+    kg of the shape scaled to max abs 1 over the sensors (NaN without scale),
+    ``reasons`` (k,) ``""`` or why a mode has no scale."""
+
+    psi: np.ndarray
+    modal_mass: np.ndarray
+    reasons: list[str]
+
+
+def scale(residues: np.ndarray, poles: np.ndarray, drive: int) -> Scaled:
+    """Unit-modal-mass shapes from ``residues`` (c, k) and ``poles`` (k,)
+    with the driving point at channel ``drive``: ``psi_j^2 = 2 i omega_d
+    R_jj``, ``psi_i = 2 i omega_d R_ij / psi_j``; ``modal_mass = 1 /
+    max_i |psi_i|^2``. A mode whose ``psi_j^2`` has a phase over
+    ``PHASE_TOL`` or is 0 gets NaN and its reason."""
+    a = 2j * poles.imag  # 2 i omega_d (k,)
+    square = a * residues[drive]  # psi_j^2 (k,)
+    phase = np.abs(np.angle(square))
+    good = (np.abs(square) > 0) & (phase <= PHASE_TOL)
+    psi_j = np.sqrt(square)  # principal root: the positive one for a positive-real square
+    with np.errstate(divide="ignore", invalid="ignore"):
+        psi = a[None, :] * residues / psi_j[None, :]
+        mass = 1.0 / np.max(np.abs(psi) ** 2, axis=0)
+    psi[:, ~good] = np.nan
+    mass[~good] = np.nan
+    reasons = ["" if g else (f"driving-point residue gives psi_j^2 of phase {np.degrees(ph):.0f} deg "
+                             f"(needs a positive real value within {np.degrees(PHASE_TOL):.0f} deg): "
+                             "the force barely excites this mode or the sign is wrong")
+               for g, ph in zip(good, phase)]
+    return Scaled(psi, mass, reasons)
+
+
+def real_shapes(psi: np.ndarray) -> np.ndarray:
+    """Real unit-modal-mass shapes (c, k): each complex column turned so its
+    driving-point entry is real positive already (:func:`scale`), real part."""
+    return np.real(psi)
