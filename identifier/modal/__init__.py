@@ -158,7 +158,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     outside its own work unless the process opted in to tuning
     (:mod:`identifier.modal.runtime`). ``input``: ``auto``, ``on`` or ``off``, the measured force scales
     the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``)."""
-    input_output.check(input)
+    input_output.check(input, traces)
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")

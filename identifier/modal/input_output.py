@@ -58,10 +58,14 @@ BAND = (0.5, 1.5)  # fitted band: these multiples of the lowest and highest SSI 
 MIN_SEGMENT = 256  # samples
 
 
-def check(option: str) -> None:
-    """An :class:`IdentificationError` for an unknown ``input`` option."""
+def check(option: str, traces: Sequence[Trace] = ()) -> None:
+    """An :class:`IdentificationError` for an unknown ``input`` option, or
+    for ``on`` when no trace has a force (before any work is done)."""
     if option not in INPUTS:
         raise IdentificationError(f"unknown input {option!r}; known: {', '.join(INPUTS)}", field="input")
+    if option == "on" and traces and not any(t.forces() for t in traces):
+        raise IdentificationError(f"{traces[0].path.name}: input=on needs a force channel or an /excitation "
+                                  "force; found none", field="input")
 
 
 def _ambient(trace: Trace) -> bool:
@@ -84,9 +88,7 @@ def decide(traces: Sequence[Trace], option: str) -> tuple[bool, str]:
         if any(_ambient(t) for t in traces):
             return False, "ambient or free-response test (output-only)"
         return True, "measured force"
-    if not any(t.forces() for t in traces):
-        raise IdentificationError(f"{traces[0].path.name}: input=on needs a force channel or an /excitation "
-                                  "force; found none", field="input")
+    check(option, traces)
     return True, "measured force" if all(measured) else "commanded force (/excitation): no load cell"
 
 

@@ -122,7 +122,7 @@ def fit(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.nd
     model = model2[:, :m] + 1j * model2[:, m:]
     used = np.isfinite(inv) & (inv > 0)
     misfit = np.sqrt(np.sum(((bw - model2 * inv) ** 2) * used, axis=1) / np.maximum(used.sum(axis=1) - P, 1))
-    return Fit(poles, coef[:, 0:2 * k:2] + 1j * coef[:, 1:2 * k:2], coef[:, 2 * k:], model, misfit)
+    return Fit(poles, coef[:, :k] + 1j * coef[:, k:2 * k], coef[:, 2 * k:], model, misfit)
 
 
 def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
