@@ -167,11 +167,17 @@ def analyse(traces: Sequence[Trace], channels: list[Channel], omega: np.ndarray,
 
 def attach(traces: Sequence[Trace], channels: list[Channel], option: str, result: Identification) -> Identification:
     """``result`` with ``details["input_output"]`` when :func:`decide` says so
-    (``{"input": "off: <why>"}`` otherwise)."""
+    (``{"input": "off: <why>"}`` otherwise; with ``auto`` also when the FRFs
+    cannot be estimated or fitted, ``on`` raises then)."""
     use, why = decide(traces, option)
     if not use:
         result.details["input_output"] = {"input": f"off: {why}", "shape_scaling": "none"}
         return result
-    result.details["input_output"] = analyse(traces, channels, np.asarray(result.omega, float),
-                                             np.asarray(result.damping, float), why)
+    try:
+        found = analyse(traces, channels, np.asarray(result.omega, float), np.asarray(result.damping, float), why)
+    except (IdentificationError, np.linalg.LinAlgError) as err:
+        if option == "on":
+            raise
+        found = {"input": f"off: the FRFs could not be fitted ({err})", "shape_scaling": "none"}
+    result.details["input_output"] = found
     return result
