@@ -8,6 +8,8 @@ sensor, one force: omega, zeta and m). Also: no driving point gives no
 scale and says why; ambient records stay output-only; bad options."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg as sl
@@ -126,3 +128,26 @@ def test_ambient_records_stay_output_only_and_bad_options_are_refused():
         identify([trace], input="maybe")
     off = identify([trace], uncertainty="off", input="off").details["input_output"]
     assert off == {"input": "off: input=off", "shape_scaling": "none"}
+
+
+def test_impulse_tests_on_accelerometers_scale_too():
+    """Three hammer hits (boxcar FRFs of whole records) read by
+    accelerometers: the acceleration's feedthrough and the poles' exact
+    zero-order-hold terms; modal masses and shapes as with displacements."""
+    omega, zeta, V = exact_modes()
+    model, dt, n = chain(), 0.004, 4096
+    traces = []
+    for seed in range(3):
+        f = np.zeros((n, 3))
+        f[10, 0] = 50.0 / dt  # 50 N s over one sample
+        trace = memory_trace(model, respond(model, f, dt), dt,
+                             [("acceleration", i, "x") for i in (1, 2, 3)] + [("force", 1, "x")],
+                             noise={"acceleration": 0.01, "force": 0.01}, seed=seed)
+        traces.append(dataclasses.replace(trace, excitation_attrs={"kind": "impulse"}))
+    io = identify(traces, uncertainty="off", refine="off").details["input_output"]
+    assert io["analysis"] == "impulse" and io["driving_point"] == "acceleration_1_x"
+    assert np.array(io["omega"]) == pytest.approx(omega, rel=1e-3)
+    phi = V / V[np.argmax(np.abs(V), axis=0), np.arange(3)]
+    assert np.array(io["modal_mass"]) == pytest.approx(np.einsum("ir,i,ir->r", phi, MASS, phi), rel=0.03)
+    psi = np.array(io["mode_shapes_scaled"]).T
+    assert np.abs(psi - V * np.sign(V[0])).max() < 0.03 * np.abs(V).max()

@@ -23,10 +23,11 @@ and ``lambda^k`` times that for a sensor of the ``k``-th derivative (the
 polynomial parts ``R s``, ``R lambda`` summed over all modes vanish or are
 a constant the residual terms take). The coefficients fitted are therefore
 the displacement residues ``R_r,i`` whatever each sensor measures. Modes
-outside the band enter through real residual terms per channel, each times
-the hold's factor ``(1 - exp(-i omega dt)) / (i omega dt)``: ``(i omega)^e``
-for ``e`` in ``{0, k, k - 2}`` (stiffness-like, the sensor's own and
-mass-like).
+outside the band, and an acceleration's feedthrough, enter through real
+residual terms per channel: ``1`` and ``z^-1`` (feedthrough; a mode far above
+the band answers the force held over the last sample) and, times the hold's
+factor ``(1 - exp(-i omega dt)) / (i omega dt)``, ``(i omega)^e`` for ``e``
+in ``{k, k - 2}`` without 0 (the sensor's own, and mass-like: modes below).
 
 Fit (:func:`fit`): weighted least squares of the residues (linear) for
 given poles; :func:`refine` moves the poles too (variable projection: the
@@ -67,7 +68,7 @@ ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 class Fit:
     """A pole-residue fit: ``poles`` (k,) complex rad/s, ``residues`` (c, k)
     complex displacement residues (m/N/s per mode and channel), ``residual``
-    (c, e) real residual-term coefficients, ``model`` (c, m) the fitted FRF,
+    (c, 4) real residual-term coefficients (zero-padded), ``model`` (c, m) the fitted FRF,
     ``misfit`` (c,) the weighted RMS residual (1: at the noise level)."""
 
     poles: np.ndarray
@@ -93,8 +94,8 @@ def _design(w: np.ndarray, dt: float, poles: np.ndarray, order: int) -> np.ndarr
     g = lam**order * (p - 1.0) / (lam * (z - p))  # R's term
     gc = np.conj(lam)**order * (np.conj(p) - 1.0) / (np.conj(lam) * (z - np.conj(p)))  # conj(R)'s term
     hold = (1.0 - np.exp(-1j * w * dt)) / (1j * w * dt)
-    powers = sorted({0, order, order - 2})
-    extra = np.stack([hold * (1j * w) ** e for e in powers], axis=1)
+    powers = sorted({order, order - 2} - {0})
+    extra = np.stack([np.ones_like(w), np.exp(-1j * w * dt)] + [hold * (1j * w) ** e for e in powers], axis=1)
     cols = np.hstack([g + gc, 1j * (g - gc), extra])  # R = a + i b: a (g + gc) + b i (g - gc)
     return np.vstack([cols.real, cols.imag])
 
@@ -106,7 +107,7 @@ def fit(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.nd
     ``orders`` (c,) each channel's derivative (0, 1, 2). Batched over channels."""
     k = poles.size
     by_order = {int(o): _design(w, dt, poles, int(o)) for o in set(orders.tolist())}
-    A = np.zeros((len(orders), 2 * w.size, 2 * k + 3))  # residual columns padded to 3
+    A = np.zeros((len(orders), 2 * w.size, 2 * k + 4))  # residual columns padded to 4
     for i, o in enumerate(orders):
         A[i, :, :by_order[int(o)].shape[1]] = by_order[int(o)]
     P = np.array([by_order[int(o)].shape[1] for o in orders])
@@ -116,13 +117,32 @@ def fit(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.nd
     Aw, bw = A * inv[:, :, None], b * inv
     norms = np.linalg.norm(Aw, axis=1)
     norms[norms == 0] = 1.0
-    coef = (np.linalg.pinv(Aw / norms[:, None, :], rcond=1e-12) @ bw[:, :, None])[:, :, 0] / norms
+    coef = _solve(Aw / norms[:, None, :], bw) / norms
     model2 = np.einsum("cnp,cp->cn", A, coef)
     m = w.size
     model = model2[:, :m] + 1j * model2[:, m:]
     used = np.isfinite(inv) & (inv > 0)
     misfit = np.sqrt(np.sum(((bw - model2 * inv) ** 2) * used, axis=1) / np.maximum(used.sum(axis=1) - P, 1))
     return Fit(poles, coef[:, :k] + 1j * coef[:, k:2 * k], coef[:, 2 * k:], model, misfit)
+
+
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Least-squares solutions (c, P) of the stacked ``A`` (c, n, P), unit
+    columns (or zero), ``b`` (c, n): the normal equations by the small
+    Gram matrices' eigendecomposition (directions below 1e-13 of the largest
+    eigenvalue dropped) and one step of iterative refinement. Tall stacked
+    LAPACK factorisations are avoided: on a busy machine their BLAS threads
+    cost a hundred times the work."""
+    G = np.einsum("cnp,cnq->cpq", A, A)
+    vals, vecs = np.linalg.eigh(G)
+    inv = np.where(vals > 1e-13 * vals[:, -1:], 1.0 / np.where(vals > 0, vals, 1.0), 0.0)
+
+    def step(r: np.ndarray) -> np.ndarray:
+        rhs = np.einsum("cnp,cn->cp", A, r)
+        return np.einsum("cpq,cq,crq,cr->cp", vecs, inv, vecs, rhs)
+
+    x = step(b)
+    return x + step(b - np.einsum("cnp,cp->cn", A, x))
 
 
 def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
