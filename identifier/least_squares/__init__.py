@@ -39,10 +39,16 @@ the bias compensation and the first-order standard errors of
 repeated integration (``M u + C int u + K intint u = intint f``; its
 random-walk noise left the chapter 3 beam's displacement-only error at
 0.024, the prefilter 0.002) and over spectra (4 s records resolve
-1.6 rad/s, above most of that beam's response). Needs the structure at rest
-at the first sample, ``lam dt`` small (the band well below Nyquist; else
-:class:`IdentificationError`), and a response channel on every DOF of the
-model (else an error naming the DOF and the channels present).
+1.6 rad/s, above most of that beam's response). Constant sensor offsets
+(a displacement probe's zero, a velocity sensor's or accelerometer's DC
+bias) are estimated with the parameters, one per response channel and
+record (:mod:`identifier.least_squares.offsets`: what the filter makes of a
+constant, and how it is taken out; ``details["offsets"]``). Needs the
+structure at rest at the first sample, ``lam dt`` small (the band well
+below Nyquist; else :class:`IdentificationError`), and a response channel
+on every DOF of the model (else an error naming the DOF and the channels
+present). The acceleration path (every DOF with an acceleration channel)
+assumes zero-mean noise: no offsets there.
 
 Rank deficiency (e.g. only rigid-body motion excited, eq. 3.15 discussion)
 raises :class:`IdentificationError` naming the parameters that are not
@@ -221,12 +227,18 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
             fixed = corrected(traces, model, records, prefilter["lambda"], est.values, sigma_of)
             if fixed is None:
                 break
-            before, est, passes = est.values, solve_colored(model, fixed, weighting, rcond), passes + 1
+            before, passes = est.values, passes + 1
+            est = solve_colored(model, fixed, weighting, rcond, est)
             if np.max(np.abs(est.values - before) / np.maximum(est.std_errors, 1e-300)) < 0.01:
                 break
         prefilter["defect_corrections"] = passes
         motion = Motion.stack([r.motion for r in records])
         how, extra = ["prefiltered"], {"prefilter": prefilter}
+        if "offset_values" in est.details:
+            names = [[c.name for c in response_channels(t, model)] for t in traces]
+            values = est.details.pop("offset_values").reshape(len(traces), model.n_dof)
+            extra["offsets"] = {t.path.name: dict(zip(chans, v.tolist())) for t, chans, v in zip(traces, names, values)}
+            prefilter["offset_iterations"] = est.details.pop("offset_iterations")
     else:
         parts = [trace_motion(t, model, samples, interval, integration, estimated) for t in traces]
         motion = Motion.stack([m for m, _ in parts])

@@ -41,7 +41,7 @@ are kept in memory. Neglected: terms of second order in the noise
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as la
@@ -52,6 +52,7 @@ from structbench.models import Structure
 from .bias_compensated import _check_rank, _solve, _Solver, _theta
 from .estimate import Estimate
 from .identifiability import check_count, check_excited
+from . import offsets as nuisance
 from .prefilter import SlotFilter, noise_sums
 from .regression import DENSE_DOF, Layout, gram, layout, moments, raw
 from . import whitened
@@ -75,14 +76,18 @@ class Source:
 @dataclass(frozen=True)
 class Record:
     """One record's filtered slots (``motion``: a
-    :class:`identifier.least_squares.Motion`) and its noise sources."""
+    :class:`identifier.least_squares.Motion`) and its noise sources;
+    ``steps``: the offset signatures projected out of its slots
+    (:class:`identifier.least_squares.offsets.Steps`), None: nothing projected."""
 
     motion: object
     sources: tuple[Source, ...]
+    steps: object = None
 
 
 def noise_gram(records: list[Record], n: int) -> sp.csr_matrix:
-    """``V`` (4 n, 4 n): summed second moments of the raw slot noise."""
+    """``V`` (4 n, 4 n): summed second moments of the raw slot noise (after
+    the records' projections, :mod:`identifier.least_squares.offsets`)."""
     rows, cols, vals = [], [], []
     for rec in records:
         m = rec.motion.force.shape[0]
@@ -92,7 +97,9 @@ def noise_gram(records: list[Record], n: int) -> sp.csr_matrix:
                 for j, bj in enumerate(src.blocks):
                     rows.append(bi * n + src.dofs)
                     cols.append(bj * n + src.dofs)
-                    vals.append(noise_sums(src.sigma, h[i], h[j]))
+                    vals.append(noise_sums(src.sigma, h[i], h[j]) - (
+                        0.0 if rec.steps is None else
+                        nuisance.noise_correction(src.sigma, rec.steps.U, src.filters[i], src.filters[j])))
     if not rows:
         return sp.csr_matrix((4 * n, 4 * n))
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
@@ -113,7 +120,7 @@ class _System:
     """``G`` and ``D``, unweighted or whitened at ``theta``."""
 
     def __init__(self, lay: Layout, motion, V: sp.csr_matrix):
-        self.lay, self.V, self.full = lay, V, lay.n_dof <= DENSE_DOF
+        self.lay, self.V, self.full, self.motion = lay, V, lay.n_dof <= DENSE_DOF, motion
         self.mom = moments(lay, motion, raw_gram=self.full)
         self.omega: np.ndarray | None = None
 
@@ -160,36 +167,86 @@ def _std_errors(lay: Layout, records: list[Record], theta: np.ndarray, omega: np
 
 
 def solve_colored(model: Structure, records: list[Record], weighting: str = "noise",
-                  rcond: float = 1e-7) -> Estimate:
+                  rcond: float = 1e-7, start: Estimate | None = None) -> Estimate:
     """Unknown parameters (``model.kind_mask()``) from the filtered records by
-    bias-compensated least squares with coloured noise (module docstring)."""
-    from . import Motion
-
+    bias-compensated least squares with coloured noise (module docstring);
+    records with offset signatures (``steps``) get their offsets estimated
+    too (:mod:`identifier.least_squares.offsets`: ``details["offset_values"]``,
+    (n per record,)), iterating from ``start`` (an earlier estimate) if given."""
     mask = model.kind_mask()
     labels = [p.label for p, k in zip(model.parameters, mask) if k]
     known = model.values[~mask]
-    motion = Motion.stack([r.motion for r in records])
-    check_count(motion.force.size, int(mask.sum()))
     lay = layout(model)
     V = noise_gram(records, model.n_dof)
+    n = model.n_dof
+    steps = [r.steps for r in records]
+
+    def evaluate(p_in: np.ndarray | None, c_in: np.ndarray, first: bool):
+        """One solve with the offsets' phi_(e+1) part fixed at ``(p_in, c_in)``; the offsets it implies."""
+        mt = None if p_in is None else whitened.equation_matrix(lay, _theta(model, mask, p_in))
+        recs = [r if s is None or mt is None or not np.any(ci) else replace(r, motion=_with_force(
+            r.motion, r.motion.force + nuisance.fixed_force(s, mt, ci)))
+            for r, s, ci in zip(records, steps, c_in.reshape(len(records), n))]
+        fit = _solve_once(model, recs, V, lay, weighting, rcond, labels, known, mask, check=first)
+        mt = whitened.equation_matrix(lay, _theta(model, mask, fit[0]))
+        return np.concatenate([np.zeros(n) if s is None else nuisance.fit(s, mt) for s in steps]), fit
+
+    with_offsets = any(s is not None for s in steps)
+    c_in = np.zeros(n * len(records))
+    p_in = None
+    if start is not None and "offset_values" in start.details:
+        p_in, c_in = start.values, np.asarray(start.details["offset_values"], dtype=float)
+    xs, gs, before, scale = [], [], None, None
+    for it in range(nuisance.ITERATIONS if with_offsets else 1):
+        c_out, fit = evaluate(p_in, c_in, it == 0)
+        if not with_offsets or (before is not None and np.max(
+                np.abs(fit[0] - before) / np.maximum(np.abs(fit[0]), 1e-300)) < nuisance.TOLERANCE):
+            break
+        before, g = fit[0], np.concatenate([fit[0], c_out])
+        if scale is None:  # parameters relative to their values, offsets to the largest one
+            scale = np.concatenate([np.abs(fit[0]), np.full(c_out.size, np.max(np.abs(c_out)))]) + 1e-300
+        x = g if p_in is None else np.concatenate([p_in, c_in])
+        p_in, c_in = np.split(nuisance.anderson(xs, gs, x / scale, g / scale) * scale, [fit[0].size])
+    c = c_out
+    p_u, solver, system, noisy, condition, recs = fit
+    theta = _theta(model, mask, p_u)
+    std = _std_errors(lay, recs, theta, system.omega if noisy else None, mask, solver)
+    motion = system.motion
+    e = raw_residual(lay, motion, theta)
+    label = ("noise (full DOF covariance)" if system.full else "noise (one weight per DOF row)") if noisy else "none"
+    extra = {"offset_values": c, "offset_iterations": it + 1} if with_offsets else {}
+    return Estimate(p_u, std, condition, e, motion.force.size,
+                    {"estimator": "bias-compensated", "weighting": label,
+                     "std_errors": "first-order propagation of the coloured slot noise"} | extra)
+
+
+def _with_force(motion, force: np.ndarray):
+    from . import Motion
+
+    return Motion(motion.times, motion.displacement, motion.velocity, motion.acceleration, force, motion.sigma)
+
+
+def _solve_once(model: Structure, records: list[Record], V: sp.csr_matrix, lay: Layout, weighting: str,
+                rcond: float, labels: list[str], known: np.ndarray, mask: np.ndarray, check: bool):
+    """One bias-compensated solve: ``(p_u, solver, system, noisy, condition, records)``."""
+    from . import Motion
+
+    motion = Motion.stack([r.motion for r in records])
+    u = np.flatnonzero(mask)
+    if check:
+        check_count(motion.force.size, int(mask.sum()))
     system = _System(lay, motion, V)
     G, D = system.gram(None)
-    u = np.flatnonzero(mask)
-    norms = {kind: float(np.sqrt(np.einsum("ij,ij->", x, x))) for kind, x in
-             (("mass", motion.acceleration), ("damping", motion.velocity), ("stiffness", motion.displacement))}
-    check_excited(model, norms, np.sqrt(G.diagonal()[u]), labels)
+    if check:
+        norms = {kind: float(np.sqrt(np.einsum("ij,ij->", x, x))) for kind, x in
+                 (("mass", motion.acceleration), ("damping", motion.velocity), ("stiffness", motion.displacement))}
+        check_excited(model, norms, np.sqrt(G.diagonal()[u]), labels)
     condition = _check_rank(G[u][:, u], labels, rcond)
     p_u, solver = _solve(G, D, mask, known)
     noisy = bool(abs(V).sum() > 0) and weighting == "noise"
     for _ in range(REWEIGHTINGS if noisy else 0):
         p_u, solver = _solve(*system.gram(_theta(model, mask, p_u)), mask, known)
-    theta = _theta(model, mask, p_u)
-    std = _std_errors(lay, records, theta, system.omega if noisy else None, mask, solver)
-    e = raw_residual(lay, motion, theta)
-    label = ("noise (full DOF covariance)" if system.full else "noise (one weight per DOF row)") if noisy else "none"
-    return Estimate(p_u, std, condition, e, motion.force.size,
-                    {"estimator": "bias-compensated", "weighting": label,
-                     "std_errors": "first-order propagation of the coloured slot noise"})
+    return p_u, solver, system, noisy, condition, records
 
 
 def raw_residual(lay: Layout, motion, theta: np.ndarray) -> float:

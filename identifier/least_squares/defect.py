@@ -23,13 +23,16 @@ removes), when the estimate is not a physical model (a negative mass or
 stiffness), its simulation is not finite, or its residual exceeds
 :data:`MAX_DEFECT` of the force (the estimate, not the discretisation, is off).
 
-Assumes, as the prefilter does, the structure at rest at the first sample.
+Assumes, as the prefilter does, the structure at rest at the first sample
+(the simulation's slots are projected like the data's,
+:mod:`identifier.least_squares.offsets`, so ``d`` lives where the equations do).
 Cost: one simulation per record and pass (:func:`simulate`; dense ``2 n x 2 n``
 eigenproblem, so for models of moderate size).
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -80,8 +83,8 @@ def corrected(traces: Sequence[Trace], model: Structure, records: list[Record], 
         m = rec.motion
         if np.sqrt(np.mean(d**2)) > MAX_DEFECT * np.sqrt(np.mean(m.force**2)):
             return None  # not a discretisation error: the estimate is too far off to correct from
-        out.append(Record(Motion(m.times, m.displacement, m.velocity, m.acceleration, m.force + d, m.sigma),
-                          rec.sources))
+        out.append(replace(rec, motion=Motion(m.times, m.displacement, m.velocity, m.acceleration, m.force + d,
+                                              m.sigma)))
     return out
 
 

@@ -27,6 +27,7 @@ from structbench.models import ModelError, Structure
 
 from ..errors import IdentificationError
 from ..io.traces import Channel, Trace
+from . import offsets
 from .colored import Record, Source
 from .prefilter import LEVELS, SLOTS, Design, band
 
@@ -113,8 +114,10 @@ def prefiltered(trace: Trace, model: Structure, lam: float, sigma_of: Callable[[
     ffilter = design.force(trace.dt, held=bool(np.isclose(trace.step, trace.dt)))
     slots[3][:, fdofs] = ffilter(force[:, fdofs])
     sources.append(Source(fdofs, fsigma[:, fdofs], (3,), (ffilter,)))
-    motion = Motion(trace.time, slots[2], slots[1], slots[0], slots[3], {})
-    return Record(motion, tuple(sources)), design
+    flat = np.ascontiguousarray(slots.transpose(1, 0, 2)).reshape(m, 4 * n)  # raw-slot order b n + j
+    steps = offsets.project(flat, sources, design, trace.dt)  # offsets' signatures out of every slot
+    a, v, u, f = (np.ascontiguousarray(flat[:, b * n:(b + 1) * n]) for b in range(4))
+    return Record(Motion(trace.time, u, v, a, f, {}), tuple(sources), steps), design
 
 
 def prefiltered_run(traces: Sequence[Trace], model: Structure, lam: float | None,
