@@ -94,11 +94,17 @@ def test_one_dof_siso_omega_zeta_and_mass_from_the_residue():
     f = 10.0 * np.random.default_rng(3).standard_normal((n, 1))
     trace = memory_trace(model, respond(model, f, dt), dt, [("displacement", 1, "x"), ("force", 1, "x")],
                          noise={"displacement": 0.01, "force": 0.01}, seed=4)
-    io = identify([trace], input="on").details["input_output"]  # the jackknife drops noise modes
-    assert io["omega"] == pytest.approx([omega], rel=1e-3)
-    assert io["damping"] == pytest.approx([zeta], rel=0.05)
-    assert io["modal_mass"] == pytest.approx([m], rel=0.03)
-    assert io["mode_shapes_scaled"][0] == pytest.approx([1 / np.sqrt(m)], rel=0.015)
+    # without the jackknife SSI keeps noise poles (7 here, its damping ratio of the true one 35 % low):
+    # the FRF fit refines the true pole all the same and gives no scale to the others
+    io = identify([trace], uncertainty="off", input="on").details["input_output"]
+    scaled = [i for i, mass in enumerate(io["modal_mass"]) if mass is not None]
+    assert len(io["omega"]) > 1 and len(scaled) == 1
+    assert all("do not carry" in io["unscaled"][i] for i in range(len(io["omega"])) if i not in scaled)
+    r = scaled[0]
+    assert io["omega"][r] == pytest.approx(omega, rel=1e-3)
+    assert io["damping"][r] == pytest.approx(zeta, rel=0.05)
+    assert io["modal_mass"][r] == pytest.approx(m, rel=0.03)
+    assert io["mode_shapes_scaled"][r] == pytest.approx([1 / np.sqrt(m)], rel=0.015)
 
 
 def test_residue_fit_and_scale_are_exact_on_the_zero_order_hold_frf():
@@ -118,8 +124,8 @@ def test_residue_fit_and_scale_are_exact_on_the_zero_order_hold_frf():
 
 
 def test_ambient_records_stay_output_only_and_bad_options_are_refused():
-    trace = chain_trace(1, (1, 2, 3), n=4096)
-    ambient = chain_trace(1, (1, 2, 3), n=4096, measured=False)  # the force not measured
+    trace = chain_trace(1, (1, 2, 3), n=2048)
+    ambient = chain_trace(1, (1, 2, 3), n=2048, measured=False)  # the force not measured
     io = identify([ambient], uncertainty="off").details["input_output"]
     assert io["input"].startswith("off: no measured force") and io["shape_scaling"] == "none"
     with pytest.raises(IdentificationError, match="input=on needs a force"):

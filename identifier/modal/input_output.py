@@ -56,6 +56,7 @@ INPUTS = ("auto", "off", "on")
 LINES_PER_BANDWIDTH = 8  # FRF lines over the narrowest mode's half-power bandwidth
 BAND = (0.5, 1.5)  # fitted band: these multiples of the lowest and highest SSI frequency
 MIN_SEGMENT = 256  # samples
+SHARE_MIN = 0.1  # least resonant peak over the measured FRF of a mode given a scale
 
 
 def check(option: str, traces: Sequence[Trace] = ()) -> None:
@@ -140,11 +141,12 @@ def analyse(traces: Sequence[Trace], channels: list[Channel], omega: np.ndarray,
         return out
     orders = np.array([rf.ORDERS[c.quantity] for c in channels])
     result, moved = rf.refine(w[band], H, sigma, dt, rf.poles_of(omega, zeta), orders)
-    if not moved:
-        warnings.append("pole refinement by the FRF fit failed or moved too far: the SSI poles are used")
+    if not moved.all():
+        warnings.append(f"{int((~moved).sum())} pole(s) not refined by the FRF fit (solver failed or a "
+                        "bound reached: a mode the FRFs do not carry): their SSI poles are used")
     lam = result.poles
     out.update({"omega": np.abs(lam).tolist(), "damping": (-lam.real / np.abs(lam)).tolist(),
-                "poles_refined": bool(moved), "segment_s": frf.segment * dt, "analysis": frf.analysis,
+                "poles_refined": moved.tolist(), "segment_s": frf.segment * dt, "analysis": frf.analysis,
                 "band": [float(w[band].min()), float(w[band].max())], "lines": int(band.sum()),
                 "misfit": result.misfit.tolist(),
                 "residues": [[[float(v.real), float(v.imag)] for v in col] for col in result.residues.T]})
@@ -155,6 +157,12 @@ def analyse(traces: Sequence[Trace], channels: list[Channel], omega: np.ndarray,
         out["modal_mass"] = [None] * omega.size
         return out
     scaled = rf.scale(result.residues, lam, drive[0])
+    share = _shares(w[band], H, result.residues, lam, orders)
+    out["share"] = share.tolist()
+    for r in np.flatnonzero(share < SHARE_MIN):
+        scaled.psi[:, r], scaled.modal_mass[r] = np.nan, np.nan
+        scaled.reasons[r] = (f"its peak is {share[r]:.2g} of the measured FRF there (needs {SHARE_MIN:g}): "
+                             "the FRFs do not carry this mode")
     out.update({"shape_scaling": "unit modal mass", "driving_point": channels[drive[0]].name,
                 "modal_mass": [None if not np.isfinite(m) else float(m) for m in scaled.modal_mass],
                 "mode_shapes_scaled": [[None if not np.isfinite(v) else float(v) for v in col]
@@ -163,6 +171,19 @@ def analyse(traces: Sequence[Trace], channels: list[Channel], omega: np.ndarray,
                                                for col in scaled.psi.T],
                 "unscaled": [r or None for r in scaled.reasons]})
     return out
+
+
+def _shares(w: np.ndarray, H: np.ndarray, residues: np.ndarray, poles: np.ndarray, orders: np.ndarray) -> np.ndarray:
+    """Per mode (k,) its resonant peak ``|lambda|^o |R| / (zeta omega)`` over
+    the measured ``|H|`` at its frequency (nearest line), the largest over
+    the channels: near 1 for a mode the FRFs carry, small for a noise pole."""
+    omega = np.abs(poles)
+    at = np.abs(w[:, None] - omega[None, :]).argmin(axis=0)  # (k,)
+    peak = np.abs(residues) * omega[None, :] ** orders[:, None] / np.maximum(-poles.real, 1e-12)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = peak / np.abs(H[:, at])
+    return np.nan_to_num(np.nanmax(np.where(np.isfinite(ratio), ratio, np.nan), axis=0), nan=0.0) \
+        if np.isfinite(ratio).any() else np.zeros(omega.size)
 
 
 def attach(traces: Sequence[Trace], channels: list[Channel], option: str, result: Identification) -> Identification:

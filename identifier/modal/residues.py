@@ -59,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+ZETA_MIN = 1e-5  # least damping ratio of a refined pole
 EPS_FLOOR = 1e-3  # least normalized random error of a line (noise-free data: coherence 1)
 PHASE_TOL = 0.35  # rad: largest phase of a driving-point psi_j^2 that still gives a scale
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -146,15 +147,18 @@ def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
-           orders: np.ndarray, max_move: float = 0.05) -> tuple[Fit, bool]:
+           orders: np.ndarray, max_move: float = 0.05) -> tuple[Fit, np.ndarray]:
     """:func:`fit` with the poles' ``omega`` and ``zeta`` fitted too
-    (variable projection, trust-region Gauss-Newton from ``poles``). Returns
-    the fit and whether the refined poles were kept: they are not when the
-    solver fails or moves a frequency by more than ``max_move`` (relative)
-    or a damping ratio out of (0, 0.5); the fit at ``poles`` is returned then."""
+    (variable projection, bounded trust-region Gauss-Newton from ``poles``:
+    each ``omega`` within ``max_move`` (relative) of its start, each ``zeta``
+    in ``[ZETA_MIN, 0.5]``). Returns the fit and per pole (k,) whether it was
+    refined: a pole that ends on a bound (a noise pole of the SSI, a mode the
+    FRFs do not carry) keeps its start, as do all when the solver fails."""
     omega0, zeta0 = np.abs(poles), -poles.real / np.abs(poles)
-    x0 = np.concatenate([np.ones_like(omega0), np.maximum(zeta0, 1e-4)])
     k = poles.size
+    lower = np.concatenate([np.full(k, 1.0 - max_move), np.full(k, ZETA_MIN)])
+    upper = np.concatenate([np.full(k, 1.0 + max_move), np.full(k, 0.5)])
+    x0 = np.clip(np.concatenate([np.ones(k), zeta0]), lower * (1 + 1e-9), upper * (1 - 1e-9))
 
     def residual(x: np.ndarray) -> np.ndarray:
         f = fit(w, H, sigma, dt, poles_of(omega0 * x[:k], x[k:]), orders)
@@ -162,16 +166,16 @@ def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np
              / np.concatenate([sigma, sigma], axis=1))
         return np.where(np.isfinite(r), r, 0.0).ravel()
 
-    start = fit(w, H, sigma, dt, poles, orders)
     try:
-        sol = least_squares(residual, x0, x_scale=np.concatenate([np.full(k, 1e-3), 0.1 * x0[k:]]),
-                            max_nfev=60 * (k + 1))
+        sol = least_squares(residual, x0, bounds=(lower, upper), max_nfev=60 * (k + 1),
+                            x_scale=np.concatenate([np.full(k, 1e-3), 0.1 * np.maximum(x0[k:], 1e-3)]))
     except (ValueError, np.linalg.LinAlgError):
-        return start, False
-    ok = sol.success and np.all(np.abs(sol.x[:k] - 1.0) <= max_move) and np.all((sol.x[k:] > 0) & (sol.x[k:] < 0.5))
-    if not ok:
-        return start, False
-    return fit(w, H, sigma, dt, poles_of(omega0 * sol.x[:k], sol.x[k:]), orders), True
+        return fit(w, H, sigma, dt, poles, orders), np.zeros(k, bool)
+    free = (sol.x > lower + 1e-6 * (upper - lower)) & (sol.x < upper - 1e-6 * (upper - lower))
+    refined = free[:k] & free[k:] & (sol.status > 0)
+    omega = np.where(refined, omega0 * sol.x[:k], omega0)
+    zeta = np.where(refined, sol.x[k:], zeta0)
+    return fit(w, H, sigma, dt, np.where(refined, poles_of(omega, zeta), poles), orders), refined
 
 
 @dataclass
