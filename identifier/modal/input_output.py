@@ -31,7 +31,11 @@ of the shortest record; a shorter one says so in ``warnings``.
 When it fails or says no: without a driving point no scale
 (``shape_scaling`` says why; the residues are still given); a mode the
 force does not excite (a node of the force's DOF) has a tiny, phase-less
-driving-point residue and no scale; modes the SSI did not find that lie in
+driving-point residue and no scale; a mode whose resonant peak
+``|R| / (zeta omega)`` is under ``SHARE_MIN`` of the measured FRF at its
+frequency on every sensor (a noise pole of the SSI, kept when the jackknife
+is off) gets no scale either, and a pole the refinement pushes onto a bound
+keeps the SSI's; modes the SSI did not find that lie in
 the fitted band bias their neighbours' residues (the band is cut to
 ``BAND`` times the SSI's lowest and highest modes); force noise biases H1,
 and so the residues, low by ``1 / (1 + N_ff / S_ff)`` (the masses high);
