@@ -39,15 +39,15 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
     "modal": (
         "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
         {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-         "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife"},
+         "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto"},
         {"quantity": ("auto", "displacement", "velocity", "acceleration"), "refine": ("auto", "off"),
-         "uncertainty": ("jackknife", "off")}),
+         "uncertainty": ("jackknife", "off"), "input": ("auto", "off", "on")}),
     "updating": (
         "finite-element model updating from identified modes (a modal results or modal-data file, "
         "--option modal=FILE) starting from the model given as the prior",
         {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3, "seed": 0,
          "regularisation": "auto", "rank_tol": 1e-06, "shape_std": None, "modes": None, "parameters": None,
-         "max_nfev": 200, "tol": 1e-10, "localise": False, "level": 0.01}, {}),
+         "max_nfev": 200, "tol": 1e-10, "localise": False, "level": 0.001}, {}),
 }
 PLUGIN_GROUP = "structbench.identifiers"  # docs/plugins.md
 

@@ -160,7 +160,7 @@ SEARCH_TOL = 1e-6  # tolerance of the searches from the starts; the polish then 
 DEFAULTS: dict[str, Any] = {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3,
                             "seed": 0, "regularisation": "auto", "rank_tol": 1e-6, "shape_std": None,
                             "modes": None, "parameters": None, "max_nfev": 200, "tol": 1e-10,
-                            "localise": False, "level": 0.01}
+                            "localise": False, "level": 0.001}
 NEEDED = ("model updating needs identified modal data: --option modal=FILE with a modal results file "
           "(DIR/results/modal.json from `structbench identify DIR --method modal`) or a modal-data file "
           "(docs/modal-data-format.md)")
@@ -204,7 +204,7 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
            bounds: Sequence[float] = (-0.9, 3.0), starts: int = 1, scatter: float = 0.3, seed: int = 0,
            regularisation: str | float = "auto", rank_tol: float = 1e-6, shape_std: float | None = None,
            modes: Sequence[int] | None = None, parameters: Sequence[str] | None = None,
-           max_nfev: int = 200, tol: float = 1e-10, localise: bool = False, level: float = 0.01,
+           max_nfev: int = 200, tol: float = 1e-10, localise: bool = False, level: float = 0.001,
            x0: Sequence[Sequence[float]] | None = None, repetition: int = 0,
            tests: Sequence[str] = ()) -> Identification:
     """Update the prior ``model`` to the modal ``data`` (see the module

@@ -76,7 +76,7 @@ def _fit(res: Residuals, subset: list[int], q: int, start: np.ndarray, lower: fl
     return full(out.x), float(2 * out.cost), int(out.nfev)
 
 
-def stepwise(res: Residuals, labels: list[str], n_eff: int, lower: float, upper: float, level: float = 0.01,
+def stepwise(res: Residuals, labels: list[str], n_eff: int, lower: float, upper: float, level: float = 0.001,
              tol: float = 1e-10, max_nfev: int = 200) -> Localised:
     """Forward stepwise selection of changed parameters (module docstring)."""
     q = len(labels)
