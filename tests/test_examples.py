@@ -108,12 +108,20 @@ def openblas_registers(lines: list[str], way: str, cwd: Path) -> None:
                         lines[-1])
 
 
+def plan_verify(lines: list[str], way: str, cwd: Path) -> None:
+    parameter, ratio = lines[0].rsplit("} ", 1)
+    assert len(lines) == 1 and parameter.startswith("{'label': 'mass[1]', 'unit': 'kg/m', 'value': 8.4, ")
+    assert 0.0 < float(parameter.rsplit(": ", 1)[1]) < 0.05  # kg/m: the bound on the 8.4 kg/m element mass
+    assert 0.7 < float(ratio) < 1.4  # achieved / predicted spread over 20 repetitions (median over parameters)
+
+
 # what each example prints (its stdout lines), by "document: heading"
 EXPECTED: dict[str, Callable[[list[str], str, Path], None]] = {
     "README.md: From Python": readme_from_python,
     "docs/campaign-format.md: From Python": campaign_format_from_python,
     "docs/openblas-dirty-avx.md: OpenBLAS's AVX-512 complex kernels leave the vector registers dirty":
         openblas_registers,
+    "docs/plan.md: Planning a test (`structbench plan`)": plan_verify,
 }
 
 
