@@ -71,6 +71,20 @@ def test_the_plugin_is_a_method(installed):
     assert "peak picking" in method.help and list(sb.methods())[:3] == ["least-squares", "perturbation", "rayleigh"]
 
 
+def test_methods_lists_what_each_needs(installed, capsys):
+    """``structbench methods --json``: every method of the registry with its options and the channels it needs."""
+    assert main(["methods", "--json"]) == 0
+    listed = {m["name"]: m for m in json.loads(capsys.readouterr().out)}
+    assert list(listed) == list(sb.methods())
+    assert listed["peaks"]["channels"] == "one or more channels of the chosen quantity; a free or random response"
+    assert listed["modal"]["options"]["input"] == {"default": "auto", "choices": ["auto", "off", "on"]}
+    assert listed["updating"]["needs_prior"] and not listed["least-squares"]["needs_prior"]
+    assert all(m["channels"] != "not stated" for name, m in listed.items())
+    assert main(["methods"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("least-squares\n  what     chapter 3") and "\npeaks\n" in text
+
+
 def test_identify_and_check_run_the_plugin(installed, frame, capsys):
     assert main(["identify", str(frame), "--method", "peaks"]) == 0
     assert main(["identify", str(frame), "--method", "peaks", "--option", "modes=1", "--tag", "one"]) == 0

@@ -20,7 +20,7 @@ from types import ModuleType
 from structbench import api
 
 COMMANDS = ("modes", "build-fmus", "run", "traces", "identify", "frf", "score", "check", "reproduce", "import",
-            "export", "plot-modes", "plan")
+            "export", "plot-modes", "plan", "methods")
 MODULES = {"import": "import_data"}  # command names that are Python keywords
 BROKEN_PIPE = 128 + 13  # the shell's status of a process killed by SIGPIPE
 

@@ -9,7 +9,8 @@ Besides the built-ins, every entry point of the group
 ``structbench.identifiers`` is a method (docs/plugins.md): its name is the
 entry point's, it loads to a callable of the same signature returning an
 ``Identification`` or a run dict of docs/results-format.md, with optional
-attributes ``defaults`` (dict), ``help`` (str), ``model`` and ``choices``.
+attributes ``defaults`` (dict), ``help`` (str), ``model``, ``choices`` and
+``channels`` (str: the trace channels and tests it needs).
 """
 from __future__ import annotations
 
@@ -33,7 +34,8 @@ class Method:
     (starting values): without ``--prior``/``prior=``/a campaign ``[prior]``
     it gets the structure's ``-postulated`` variant when there is one, else
     an error (never the traces' structure's values, the truth); the others
-    get the structure's topology (runs.resolve_prior)."""
+    get the structure's topology (runs.resolve_prior). ``channels``: the
+    trace channels and tests the method needs, in words."""
 
     name: str
     call: Callable[..., Identification]
@@ -42,6 +44,7 @@ class Method:
     choices: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
     model: str = "required"
     postulated: bool = False
+    channels: str = "not stated"
 
     def options(self, given: Mapping[str, Any]) -> dict[str, Any]:
         """The defaults updated with ``given`` (None means default); an unknown
@@ -64,25 +67,36 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
             "weighting": "noise"},
            "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
            {"estimator": least_squares.ESTIMATORS, "integration": least_squares.INTEGRATIONS,
-            "weighting": least_squares.WEIGHTINGS}),
+            "weighting": least_squares.WEIGHTINGS},
+           channels="the force at every forced DOF and one of displacement, velocity or acceleration at every "
+                    "DOF of the model (any mix); any excitation"),
     Method("perturbation", perturbation.identify,
            {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False},
-           "chapter 4: iterative frequency-domain perturbation from a postulated model", postulated=True),
+           "chapter 4: iterative frequency-domain perturbation from a postulated model", postulated=True,
+           channels="harmonic (stepped-sine) tests: the force and one response quantity (displacement, "
+                    "velocity or acceleration) at one or more DOF; unmeasured DOF are pseudo-parameters"),
     Method("rayleigh", rayleigh.identify,
            {"variant": "auto", "window": "hann", "admissible": None, "functions": None},
            "chapter 5: modes from free response by a pseudo-Rayleigh quotient",
            {"variant": rayleigh.VARIANTS, "window": rayleigh.WINDOWS, "admissible": (None, "cosine")},
-           model="optional"),
+           model="optional",
+           channels="free responses: displacement and velocity (variant displacement) or velocity and "
+                    "acceleration (variant velocity) at the same sensors"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
             "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
            {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY,
             "input": modal.input_output.INPUTS},
-           model="optional"),
+           model="optional",
+           channels="one or more response channels of any quantity (displacement, velocity, acceleration, "
+                    "mixed; weighted by their noise); a free decay or a random response; a measured force "
+                    "with a response at its DOF adds unit-modal-mass shapes (option input)"),
     Method("updating", updating.identify, dict(updating.DEFAULTS),
            "finite-element model updating from identified modes (a modal results or modal-data file, "
-           "--option modal=FILE) starting from the model given as the prior", postulated=True),
+           "--option modal=FILE) starting from the model given as the prior", postulated=True,
+           channels="no channels: identified modes (a modal results file, a modal-data file or UFF 55) at "
+                    "the model's DOF"),
 )}
 
 
@@ -124,7 +138,8 @@ def plugin(entry: Any) -> Method:
     return Method(entry.name, call, dict(getattr(target, "defaults", {})),
                   str(getattr(target, "help", doc[0] if doc else f"plugin {entry.value}")),
                   {k: tuple(v) for k, v in getattr(target, "choices", {}).items()},
-                  str(getattr(target, "model", "optional")), bool(getattr(target, "postulated", False)))
+                  str(getattr(target, "model", "optional")), bool(getattr(target, "postulated", False)),
+                  str(getattr(target, "channels", "not stated")))
 
 
 def methods() -> dict[str, Method]:

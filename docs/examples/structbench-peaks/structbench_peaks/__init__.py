@@ -52,3 +52,4 @@ def identify(traces: list[Any], model: Any = None, *, modes: int = 3, quantity: 
 identify.defaults = {"modes": 3, "quantity": "acceleration", "pad": 8}
 identify.help = "natural frequencies by peak picking on the averaged response spectrum (plugin structbench-peaks)"
 identify.model = "none"
+identify.channels = "one or more channels of the chosen quantity; a free or random response"
