@@ -42,8 +42,10 @@ random-walk noise left the chapter 3 beam's displacement-only error at
 1.6 rad/s, above most of that beam's response). Constant sensor offsets
 (a displacement probe's zero, a velocity sensor's or accelerometer's DC
 bias) are estimated with the parameters, one per response channel and
-record (:mod:`identifier.least_squares.offsets`: what the filter makes of a
-constant, and how it is taken out; ``details["offsets"]``). Needs the
+record, when a chi-square test on the at-rest estimate finds them
+(:mod:`identifier.least_squares.offsets`: what the filter makes of a
+constant, how it is taken out, when it is confounded with the motion;
+``details["offsets"]``). Needs the
 structure at rest at the first sample, ``lam dt`` small (the band well
 below Nyquist; else :class:`IdentificationError`), and a response channel
 on every DOF of the model (else an error naming the DOF and the channels
@@ -60,6 +62,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.special import chdtrc
 
 from structbench.models import ModelError, Structure
 
@@ -70,6 +73,8 @@ from ..errors import IdentificationError
 from .estimate import Estimate
 from .integrate import METHODS, integrate
 from .noise_levels import estimate_sigma
+from . import offsets, whitened
+from .regression import layout
 from .ols import WEIGHTINGS, solve
 from ..io.results import Identification, ParameterEstimate
 from ..io.traces import Channel, Trace
@@ -222,6 +227,13 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         sigma_of = (lambda t, c: _sigma(t, c, estimated))
         records, prefilter = prefiltered_run(traces, model, None, sigma_of)
         est = solve_colored(model, records, weighting, rcond)
+        at_rest = model.values.copy()
+        at_rest[model.kind_mask()] = est.values
+        chi2, dof = offsets.statistic(records, whitened.equation_matrix(layout(model), np.append(at_rest, -1.0)))
+        prefilter["offsets_test"] = {"chi2": chi2, "dof": dof}
+        if dof and chdtrc(dof, chi2) < offsets.SIGNIFICANCE:
+            records = [offsets.projected(r) for r in records]
+            est = solve_colored(model, records, weighting, rcond)
         passes = 0
         for _ in range(DEFECT_PASSES):
             fixed = corrected(traces, model, records, prefilter["lambda"], est.values, sigma_of)

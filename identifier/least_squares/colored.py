@@ -77,12 +77,14 @@ class Source:
 class Record:
     """One record's filtered slots (``motion``: a
     :class:`identifier.least_squares.Motion`) and its noise sources;
-    ``steps``: the offset signatures projected out of its slots
-    (:class:`identifier.least_squares.offsets.Steps`), None: nothing projected."""
+    ``steps``: its offset signatures
+    (:class:`identifier.least_squares.offsets.Steps`), or None; ``projected``:
+    the free ones are out of its slots (its offsets get estimated)."""
 
     motion: object
     sources: tuple[Source, ...]
     steps: object = None
+    projected: bool = False
 
 
 def noise_gram(records: list[Record], n: int) -> sp.csr_matrix:
@@ -98,7 +100,7 @@ def noise_gram(records: list[Record], n: int) -> sp.csr_matrix:
                     rows.append(bi * n + src.dofs)
                     cols.append(bj * n + src.dofs)
                     vals.append(noise_sums(src.sigma, h[i], h[j]) - (
-                        0.0 if rec.steps is None else
+                        0.0 if not rec.projected else
                         nuisance.noise_correction(src.sigma, rec.steps.U, src.filters[i], src.filters[j])))
     if not rows:
         return sp.csr_matrix((4 * n, 4 * n))
@@ -170,7 +172,7 @@ def solve_colored(model: Structure, records: list[Record], weighting: str = "noi
                   rcond: float = 1e-7, start: Estimate | None = None) -> Estimate:
     """Unknown parameters (``model.kind_mask()``) from the filtered records by
     bias-compensated least squares with coloured noise (module docstring);
-    records with offset signatures (``steps``) get their offsets estimated
+    projected records (``projected``) get their offsets estimated
     too (:mod:`identifier.least_squares.offsets`: ``details["offset_values"]``,
     (n per record,)), iterating from ``start`` (an earlier estimate) if given."""
     mask = model.kind_mask()
@@ -179,7 +181,7 @@ def solve_colored(model: Structure, records: list[Record], weighting: str = "noi
     lay = layout(model)
     V = noise_gram(records, model.n_dof)
     n = model.n_dof
-    steps = [r.steps for r in records]
+    steps = [r.steps if r.projected else None for r in records]
 
     def evaluate(p_in: np.ndarray | None, c_in: np.ndarray, first: bool):
         """One solve with the offsets' phi_(e+1) part fixed at ``(p_in, c_in)``; the offsets it implies."""

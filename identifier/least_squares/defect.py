@@ -24,8 +24,8 @@ stiffness), its simulation is not finite, or its residual exceeds
 :data:`MAX_DEFECT` of the force (the estimate, not the discretisation, is off).
 
 Assumes, as the prefilter does, the structure at rest at the first sample
-(the simulation's slots are projected like the data's,
-:mod:`identifier.least_squares.offsets`, so ``d`` lives where the equations do).
+(``d`` is projected like the records' slots when their offsets are
+estimated, :mod:`identifier.least_squares.offsets`).
 Cost: one simulation per record and pass (:func:`simulate`; dense ``2 n x 2 n``
 eigenproblem, so for models of moderate size).
 """
@@ -80,6 +80,8 @@ def corrected(traces: Sequence[Trace], model: Structure, records: list[Record], 
         response_channels(trace, model)
         sim_rec, _ = prefiltered(trace, model, lam, sigma_of, responses=sim | {"force": force})
         d = (mt.T @ raw(sim_rec.motion, slice(None))).T  # (n_t, n): the residual of exact data
+        if rec.projected:  # where the equations are
+            d -= rec.steps.U @ (rec.steps.U.T @ d)
         m = rec.motion
         if np.sqrt(np.mean(d**2)) > MAX_DEFECT * np.sqrt(np.mean(m.force**2)):
             return None  # not a discretisation error: the estimate is too far off to correct from

@@ -54,8 +54,26 @@ when no parameter moves by :data:`TOLERANCE` of its value (at most
 errors, about ``|b_(e+1)| / |F|`` of them) is left out of the standard errors.
 
 Measured (1-DOF, 1 kg, 1e4 N/m, 10 N s/m; 2 % noise on displacement and
-force, five 4 s impulse records): no offset, the standard errors of m, k, c
-change by < 3 % against no projection; 1 mm offset: m, c, k as without.
+force, five 4 s impulse records): with the offsets estimated where there
+are none, the standard errors of m, c, k change by < 3 %; with a 1 mm
+offset, m, c, k are as good as without one (benchmarks/foreign_fmu.py).
+
+When. Estimating offsets costs precision (the projection, and ``n``
+more unknowns per record) and fails where they are confounded with the
+motion: a free structure's rigid-body modes (a velocity offset in a
+rigid-body shape *is* a rigid-body motion), records no longer than the
+signatures. So the offsets are estimated only when they show: the at-rest
+estimate's equation errors along the free signatures, ``x = vec(U^T X Mt)``
+(q n per record), have the first-order noise covariance ``Sigma`` (every
+source through the adjoint slot filters, as above), and
+``chi^2 = x^T Sigma^+ x`` (:func:`statistic`; summed over records, degrees of
+freedom the ranks) beyond its ``1 -`` :data:`SIGNIFICANCE` quantile switches
+them on (``details.prefilter.offsets_test``). Without offsets it stays
+near its degrees of freedom (chapter 3 beam, 2 % noise: 50-66 on 64),
+and the estimate is the at-rest one, unchanged; on the 1-DOF oscillator
+below (five records, 10 degrees of freedom) 6-20 without an offset, 1e5
+with 10 um (a tenth of the response's RMS), 2e4 with 1 mm (the noise, 2 %
+of the RMS with the offset, ten times larger).
 
 Reported: ``c`` per record and response channel, in the channel's unit,
 without standard errors; an initial state other than rest reads as offsets.
@@ -83,6 +101,7 @@ ITERATIONS = 12  # solves at most (each re-fixes the phi_(e+1) part from the lat
 MEMORY = 4  # iterates mixed by the Anderson acceleration
 TOLERANCE = 1e-5  # stop when no parameter moves by more than this share of its value
 RANK_TOL = 1e-9  # sampled phi_d with singular values below this share of the largest are dropped
+SIGNIFICANCE = 1e-6  # offsets estimated when the at-rest estimate's chi^2 along the signatures is this unlikely
 
 
 @dataclass(frozen=True)
@@ -110,9 +129,9 @@ class Steps:
         return A
 
 
-def project(slots: np.ndarray, sources: Sequence, design: Design, dt: float) -> Steps:
-    """The :class:`Steps` of a record's response ``sources`` (blocks 0 a, 1 v, 2
-    u); its raw slots ``slots`` (m, 4 n) are projected in place."""
+def signatures(slots: np.ndarray, sources: Sequence, design: Design) -> Steps:
+    """The :class:`Steps` of a record's response ``sources`` (blocks 0 a, 1 v,
+    2 u) and raw slots ``slots`` (m, 4 n), which stay as they are."""
     m, n4 = slots.shape
     n = n4 // 4
     functions, d, index, of = [], [], {}, np.full(n4, -1)
@@ -129,11 +148,50 @@ def project(slots: np.ndarray, sources: Sequence, design: Design, dt: float) -> 
     free = S[:, d != design.e + 1]
     u, sv, _ = np.linalg.svd(free, full_matrices=False)
     U = u[:, sv > RANK_TOL * sv.max()]
-    removed = U.T @ slots
-    slots -= U @ removed
     one = S[:, d == design.e + 1]
     fixed = one[:, 0] - U @ (U.T @ one[:, 0]) if one.size else np.zeros(m)
-    return Steps(S, d, of, U, removed, fixed, design.e + 1)
+    return Steps(S, d, of, U, U.T @ slots, fixed, design.e + 1)
+
+
+def projected(rec):
+    """``rec`` (a :class:`identifier.least_squares.colored.Record` with
+    ``steps``) with every slot projected, ``x <- x - U U^T x``."""
+    from dataclasses import replace
+
+    from . import Motion
+
+    mo, st = rec.motion, rec.steps
+    n = mo.force.shape[1]
+    taken = st.U @ st.removed  # (m, 4 n)
+    a, v, u, f = (getattr(mo, q) - taken[:, b * n:(b + 1) * n]
+                  for b, q in enumerate(("acceleration", "velocity", "displacement", "force")))
+    return replace(rec, motion=Motion(mo.times, u, v, a, f, mo.sigma), projected=True)
+
+
+def statistic(records: Sequence, mt: np.ndarray) -> tuple[float, int]:
+    """``chi^2`` of the equations' components along the free signatures at
+    ``Mt`` (4 n, n) (an estimate that assumed no offsets), against their noise
+    covariance (first order, every source through its slot filters), and
+    its degrees of freedom (the covariance's rank), summed over records."""
+    n = mt.shape[1]
+    chi2, dof = 0.0, 0
+    for rec in records:
+        st = rec.steps
+        q = st.U.shape[1]
+        x = (st.removed @ mt).ravel()  # (q n,)
+        cov = np.zeros((q, n, q, n))
+        for src in rec.sources:
+            G = [f(st.U, reverse=True) for f in src.filters]  # (m, q) each
+            for b, gb in zip(src.blocks, G):
+                for b2, gb2 in zip(src.blocks, G):
+                    cj = np.einsum("lj,lq,lp->jqp", src.sigma**2, gb, gb2, optimize=True)
+                    cov += np.einsum("jr,js,jqp->qrps", mt[b * n + src.dofs], mt[b2 * n + src.dofs], cj,
+                                     optimize=True)
+        w, V = np.linalg.eigh(cov.reshape(q * n, q * n))
+        keep = w > RANK_TOL * max(w.max(initial=0.0), np.finfo(float).tiny)
+        chi2 += float(np.sum((V[:, keep].T @ x) ** 2 / w[keep]))
+        dof += int(keep.sum())
+    return chi2, dof
 
 
 def noise_correction(sigma: np.ndarray, U: np.ndarray, f: SlotFilter, g: SlotFilter) -> np.ndarray:

@@ -115,9 +115,8 @@ def prefiltered(trace: Trace, model: Structure, lam: float, sigma_of: Callable[[
     slots[3][:, fdofs] = ffilter(force[:, fdofs])
     sources.append(Source(fdofs, fsigma[:, fdofs], (3,), (ffilter,)))
     flat = np.ascontiguousarray(slots.transpose(1, 0, 2)).reshape(m, 4 * n)  # raw-slot order b n + j
-    steps = offsets.project(flat, sources, design, trace.dt)  # offsets' signatures out of every slot
-    a, v, u, f = (np.ascontiguousarray(flat[:, b * n:(b + 1) * n]) for b in range(4))
-    return Record(Motion(trace.time, u, v, a, f, {}), tuple(sources), steps), design
+    motion = Motion(trace.time, slots[2], slots[1], slots[0], slots[3], {})
+    return Record(motion, tuple(sources), offsets.signatures(flat, sources, design)), design
 
 
 def prefiltered_run(traces: Sequence[Trace], model: Structure, lam: float | None,
