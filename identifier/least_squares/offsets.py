@@ -110,7 +110,7 @@ class Steps:
     responses ``phi_d`` of its response slot filters, ``d`` (n_f,); ``of``
     (4 n,): which one each raw slot carries (-1: none, the force); ``U`` (m, q):
     orthonormal basis of the free ones (``d != e + 1``); ``removed`` (q, 4 n):
-    the raw slots' coordinates along ``U`` (taken off the slots); ``fixed``
+    the raw slots' coordinates along ``U`` (taken off them by :func:`projected`); ``fixed``
     (m,): the projected ``phi_(e+1)`` (zeros if no slot carries it), ``fixed_d`` = e + 1."""
 
     functions: np.ndarray
