@@ -1,6 +1,8 @@
 """``structbench score``: compare a campaign's results with its truth.
 
-The text output says what ``--json`` holds in short: parameter errors, and
+The text output says what ``--json`` holds in short: parameter errors (for
+least squares with 5 runs or more, the median efficiency: Cramer-Rao bound /
+achieved spread, ``summary.efficiency``), and
 for modal results (modes paired with the true ones) a table of the true
 modes with how often each was found, the median frequency and damping
 errors, the coverage of the stated standard errors and the MAC; modes never
@@ -85,6 +87,22 @@ def damage_lines(damage: dict[str, Any]) -> list[str]:
     return lines
 
 
+def efficiency_lines(eff: dict[str, Any]) -> list[str]:
+    """Text lines of ``summary.efficiency`` (evaluation/efficiency.py): the
+    median efficiency (Cramer-Rao bound / achieved spread) with its range,
+    what the bound is, then the parameters farthest from the bound."""
+    head = f"  spread over {eff['runs']} runs against the Cramer-Rao bound"
+    if eff.get("reason") or eff.get("median") is None:
+        return [f"{head}: {eff.get('reason', 'no finite efficiency')}"]
+    out = [f"{head}: efficiency (bound / achieved std, 1 at best) median {eff['median']:.3f} "
+           f"(range {eff['min']:.3f} .. {eff['max']:.3f}, 10-90 %: {eff['p10']:.3f} .. {eff['p90']:.3f})",
+           f"    bound: {eff['bound']}"]
+    worst = sorted(eff["parameters"], key=lambda p: p["efficiency"] if _finite(p["efficiency"]) else -1)[:3]
+    out.append("    lowest: " + ", ".join(f"{p['label']} {_num(p['efficiency'], '.3f', 0)} (achieved "
+                                          f"{p['achieved_std']:.3g}, bound {p['bound_std']:.3g})" for p in worst))
+    return out
+
+
 def lines(stem: str, score: dict[str, Any]) -> list[str]:
     """Text lines of one results file's scores."""
     s = score["summary"]
@@ -92,6 +110,8 @@ def lines(stem: str, score: dict[str, Any]) -> list[str]:
     if "rms" in s:
         out.append(f"  normalized RMS parameter error: median {s['rms']['median']:.4g} "
                    f"(10-90 %: {s['rms']['p10']:.4g} .. {s['rms']['p90']:.4g})")
+    if "efficiency" in s:  # least squares: achieved spread against the Cramer-Rao bound
+        out += efficiency_lines(s["efficiency"])
     if "rms_initial" in s:
         out.append(f"  starting model: median {s['rms_initial']['median']:.4g}; improved in "
                    f"{100 * s['improved_fraction']:.0f} % of runs; iterations {s['iterations']}")

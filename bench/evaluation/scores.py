@@ -5,7 +5,8 @@ natural-frequency errors (%) and the MAC of mode shapes (modal results with
 damping: modes paired with the true ones, damping errors and the coverage of
 the stated errors, :mod:`modal_scores`; updating from a baseline: which
 parameters changed beyond their errors, :mod:`damage_scores`); per results file a
-summary over the Monte Carlo runs (median and 10-90 % spread).
+summary over the Monte Carlo runs (median and 10-90 % spread) and, for least
+squares, each parameter's spread beside its Cramer-Rao bound (:mod:`efficiency`).
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from structbench.models.errors import UserError
 from structbench.models.mac import mac
 
 from .damage_scores import damage_scores
+from .efficiency import efficiency, load_folder_campaign
 from .metrics import frequency_error_pct, normalized_rms, relative_errors
 from .truth_checks import read_truth
 from .modal_scores import modal_scores, modal_summary
@@ -122,6 +124,13 @@ def score_campaign(folder: str | Path) -> dict[str, Any]:
     if not files:
         raise UserError(f"no results in {folder / 'results'}: run structbench identify first", field="CAMPAIGN_DIR")
     scores = {}
+    loaded: list[Any] = []  # the folder's campaign, loaded once for the bounds (efficiency.py)
+
+    def campaign() -> Any:
+        if not loaded:
+            loaded.append(load_folder_campaign(folder))
+        return loaded[0]
+
     for path in files:
         header, runs = read_results(path)
         if not runs:
@@ -129,6 +138,9 @@ def score_campaign(folder: str | Path) -> dict[str, Any]:
         plain = [r.to_dict() for r in runs]
         scored = [score_run(r, truth) for r in plain]
         scores[path.stem] = {"method": header["method"], "summary": summarize(scored), "runs": scored}
+        bound = efficiency(folder, header, plain, campaign)  # least squares: achieved spread / Cramer-Rao bound
+        if bound is not None:
+            scores[path.stem]["summary"]["efficiency"] = bound
         damage = damage_scores(folder, header, plain)  # updating from a baseline: what changed
         if damage is not None:
             scores[path.stem]["damage"] = damage
