@@ -27,11 +27,14 @@ def _kinds(labels: list[str]) -> np.ndarray:
 
 def row(scored: dict[str, Any]) -> dict[str, Any]:
     """Median normalized RMS (p10, p90), per kind the median |relative error|
-    (median over runs, worst parameter) and the 95 % coverage."""
+    (median over runs, worst parameter) and the 95 % coverage; ``efficiency``
+    (Cramer-Rao bound / achieved spread, :mod:`efficiency`) when scored."""
     runs = scored["runs"]
     kinds = _kinds(runs[0]["labels"])
     errors = np.abs(np.array([r["errors"] for r in runs]))
     out: dict[str, Any] = {"rms": scored["summary"]["rms"], "runs": len(runs), "kinds": {}}
+    if "efficiency" in scored["summary"]:  # the Cramer-Rao bound beside the spread (efficiency.py)
+        out["efficiency"] = scored["summary"]["efficiency"]
     z = np.array([r["z"] for r in runs]) if all("z" in r for r in runs) else None
     for kind in dict.fromkeys(kinds.tolist()):
         pick = kinds == kind

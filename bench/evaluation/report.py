@@ -104,6 +104,15 @@ def _what(campaign: str, tag: str) -> str:
     return next(s.variant for s in STEPS if s.campaign == campaign and s.tag == tag)
 
 
+def _efficiency(eff: dict[str, Any] | None) -> str:
+    """``median (min-max)`` of a results file's efficiency (evaluation/efficiency.py), ``*`` when
+    the bound is for another estimator than the one run; ``-`` when there is none."""
+    if not eff or eff.get("median") is None:
+        return "-" if not eff else eff.get("reason", "-")
+    return (f"{eff['median']:.2f} ({eff['min']:.2f}-{eff['max']:.2f})"
+            + ("" if eff["same_settings"] else "*"))
+
+
 def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path]:
     """Table of the "beyond the dissertation" rows and the coverage figure."""
     rows = summary["ch3-beyond"]
@@ -113,13 +122,17 @@ def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path
              "0.95; with few seeds a coarse figure, since one seed moves all parameters of a run",
              "together: benchmarks/least_squares_accuracy.py and tests/test_identify_bias_compensated.py",
              "check it over more).", "",
-             "| case | set-up | RMS median (p10-p90) | per kind: error, coverage |", "|---|---|---|---|"]
+             "Efficiency: the Cramer-Rao bound (`structbench plan`, the default estimator on the same",
+             "samples) over the achieved standard deviation per parameter, median (range) over the",
+             "parameters; 1 at best; marked * where the results used another estimator than the bound's.", "",
+             "| case | set-up | RMS median (p10-p90) | per kind: error, coverage | efficiency |", "|---|---|---|---|---|"]
     for key, r in rows.items():
         campaign, stem = key.split("/")
         kinds = "; ".join(f"{k} {100 * v['median_abs_error']:.2f} % ({100 * v['worst_median_abs_error']:.2f} %)"
                           + (f", {v['coverage95']:.2f}" if "coverage95" in v else "") for k, v in r["kinds"].items())
         lines.append(f"| {campaign} `{stem}` | {_what(campaign, stem.removeprefix('least-squares-'))} | "
-                     f"{r['rms']['median']:.4f} ({r['rms']['p10']:.4f}-{r['rms']['p90']:.4f}) | {kinds} |")
+                     f"{r['rms']['median']:.4f} ({r['rms']['p10']:.4f}-{r['rms']['p90']:.4f}) | {kinds} | "
+                     f"{_efficiency(r.get('efficiency'))} |")
     figure = plots.coverage(out / "ch3-coverage.png", "Chapter 3: coverage of the stated 95 % intervals",
                             {key: {k: v["coverage95"] for k, v in r["kinds"].items() if "coverage95" in v}
                              for key, r in rows.items()})
