@@ -118,7 +118,7 @@ def _describe(options: dict[str, Any], details: dict[str, Any]) -> tuple[str, bo
     """What the bound is, and whether the results used the estimator it bounds."""
     used = {k: options.get(k, v) for k, v in DEFAULT.items()}
     differs = [f"{k} {used[k]}" for k, v in DEFAULT.items() if used[k] != v and k != "samples"]
-    if details.get("motion") not in (None, ["measured"]):
+    if details.get("motion") not in (None, ["measured"]) and used["integration"] == "auto":
         differs.append(f"motion {'/'.join(details['motion'])}")
     where = ("every sample" if used["samples"] is None
              else f"the same {used['samples']} samples per trace (interval {options.get('interval')} s)")
