@@ -112,20 +112,29 @@ def build_fmu(model: Structure | ModalModel, out_dir: str | Path) -> Path:
         "resources/slavemodule.txt": module.encode(),
     }
     files.update({f"resources/pythonfmu/{f.name}": f.read_bytes() for f in sorted(PYTHONFMU.glob("*.py"))})
-    files.update({f"binaries/{platform}/{module}{f.suffix}": f.read_bytes() for f, platform in _binaries()})
+    binaries = _binaries()
+    if not binaries:
+        raise ModelError(f"pythonfmu at {PYTHONFMU} has no export binaries (resources/binaries/*/): an FMU built "
+                         "with it could not be loaded; is an FMU's resources folder on sys.path?", field="pythonfmu")
+    files.update({f"binaries/{platform}/{module}{f.suffix}": f.read_bytes() for f, platform in binaries})
     with tempfile.TemporaryDirectory(prefix="sb_fmu_") as tmp:
         stage = Path(tmp)
         for name in (f"{module}.py", f"{module}_rt.py", f"{module}.json"):
             (stage / name).write_bytes(files[f"resources/{name}"])
         files["modelDescription.xml"] = _model_description(stage, module)
     out_dir.mkdir(parents=True, exist_ok=True)
-    partial = target.with_suffix(".fmu.part")
-    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name in sorted(files):
-            info = zipfile.ZipInfo(name, ZIP_DATE)
-            info.external_attr = 0o644 << 16  # rw-r--r--
-            zf.writestr(info, files[name], zipfile.ZIP_DEFLATED)
-    partial.replace(target)
+    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=out_dir)
+    partial = Path(name)  # this process's own: processes building the same FMU at once never share one
+    try:
+        with os.fdopen(handle, "wb") as raw, zipfile.ZipFile(raw, "w", zipfile.ZIP_DEFLATED) as zf:
+            for name in sorted(files):
+                info = zipfile.ZipInfo(name, ZIP_DATE)
+                info.external_attr = 0o644 << 16  # rw-r--r--
+                zf.writestr(info, files[name], zipfile.ZIP_DEFLATED)
+        partial.chmod(0o644)
+        partial.replace(target)  # atomic: a reader sees the old file or the whole new one
+    finally:
+        partial.unlink(missing_ok=True)
     return target
 
 

@@ -195,7 +195,7 @@ def test_a_damaged_entry_is_simulated_again(cached, tmp_path, monkeypatch):
     from structbench.harness import fmu_session
     made = []
     run = fmu_session.FmuSession.run
-    monkeypatch.setattr(fmu_session.FmuSession, "run", lambda self, i, o, f, *a: made.append(len(f)) or run(self, i, o, f, *a))
+    monkeypatch.setattr(fmu_session.FmuSession, "run", lambda self, i, o, f, *a, **k: made.append(len(f)) or run(self, i, o, f, *a, **k))
     assert cached_campaign(campaign, copy, jobs=0) == entry
     assert made == [10001] and trace.read_bytes() == good
     made.clear()

@@ -271,7 +271,8 @@ class _Lane:
 
     def __init__(self, queue: deque) -> None:
         (to_child, from_parent), (to_parent, from_child) = os.pipe(), os.pipe()
-        self.process = subprocess.Popen([sys.executable, "-c", LANE, str(to_child), str(from_child), *sys.path],
+        from structbench.harness.child import host_path  # standard library only
+        self.process = subprocess.Popen([sys.executable, "-c", LANE, str(to_child), str(from_child), *host_path()],
                                         pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL, stdout=2)
         os.close(to_child)
         os.close(from_child)

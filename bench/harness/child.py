@@ -2,7 +2,7 @@
 workers of the local pool and of Dask workers.
 
 :class:`Child` starts a Python that runs :func:`serve` (:data:`COMMAND`,
-with this process's ``sys.path``) with :mod:`subprocess`, not
+with this process's ``sys.path``, :func:`host_path`) with :mod:`subprocess`, not
 ``multiprocessing``: it never imports the caller's ``__main__`` (a script
 without an ``if __name__ == "__main__":`` guard is not run again), changes
 no process-wide setting, and also works under a Dask worker, whose threads
@@ -31,6 +31,14 @@ STOP_SECONDS = 30.0  # s, limit for an idle child to close what it opened and ex
 _CHILDREN: weakref.WeakSet[Child] = weakref.WeakSet()  # stopped at exit
 
 
+def host_path() -> list[str]:
+    """This process's ``sys.path`` for a child Python, without the resources
+    folders of FMUs open here (a pythonfmu FMU run in-process prepends its
+    ``resources/``, which holds a copy of pythonfmu without its binaries: a
+    child importing that copy would build FMUs that cannot be loaded)."""
+    return [p for p in sys.path if not os.path.isfile(os.path.join(p or ".", "slavemodule.txt"))]
+
+
 class TimedOut(Exception):
     """The task ran longer than its limit; the child was killed."""
 
@@ -45,7 +53,7 @@ class Child:
     def __init__(self) -> None:
         to_child, from_parent = os.pipe()
         to_parent, from_child = os.pipe()
-        self.process = subprocess.Popen([sys.executable, "-c", COMMAND, str(to_child), str(from_child), *sys.path],
+        self.process = subprocess.Popen([sys.executable, "-c", COMMAND, str(to_child), str(from_child), *host_path()],
                                         pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL)
         os.close(to_child)
         os.close(from_child)
