@@ -13,7 +13,6 @@ are read run by run, by the process that identifies the run
 """
 from __future__ import annotations
 
-import json
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from fnmatch import fnmatch
@@ -21,6 +20,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from structbench.identifier.errors import IdentificationError
+from structbench.identifier.io.json_checks import load_json
 from structbench.identifier.io.results import result_path, results_document, write_results
 from structbench.identifier.io.traces import Trace, TraceInfo, read_infos
 import numpy as np
@@ -83,12 +83,7 @@ def _json(path: Path) -> dict[str, Any] | None:
     """A JSON prior file's document, None when ``path`` is not a .json file."""
     if path.suffix != ".json":
         return None
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise IdentificationError(f"cannot read the prior {path}: {err.strerror}", field="--prior") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise IdentificationError(f"{path}: not JSON ({err})", field="--prior") from None
+    doc = load_json(path)
     if not isinstance(doc, dict) or doc.get("format") not in (PRIOR_FORMAT, "structbench-result"):
         raise IdentificationError(f"{path}: a JSON prior must be a prior.json ({PRIOR_FORMAT}) or a results file "
                                   "with parameters (structbench-result)", field="--prior")

@@ -10,7 +10,6 @@ shape) in any scaling and sign, and their standard errors ``shape_std``
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import IdentificationError
+from ..io.json_checks import load_json
 
 FORMAT = "structbench-modal-data"
 QUANTITIES = ("displacement", "velocity", "acceleration")
@@ -143,12 +143,7 @@ def load(path: str | Path, tests: list[str] | None = None, repetition: int | Non
     ``tests`` (else whose ``repetition`` is ``repetition``; a file of one run:
     that run)."""
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise IdentificationError(f"cannot read modal data {path}: {err.strerror}", field="modal") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise IdentificationError(f"{path}: not JSON ({err})", field="modal") from None
+    doc = load_json(path)
     if isinstance(doc, dict) and doc.get("format") == "structbench-result":
         runs = doc.get("runs") or []
         chosen = [r for r in runs if tests is not None and sorted(r.get("tests", [])) == sorted(tests)]
