@@ -140,14 +140,15 @@ def from_run(run: dict[str, Any], source: str = "") -> ModalData:
 
 def load(path: str | Path, tests: list[str] | None = None, repetition: int | None = None) -> ModalData:
     """A modal-data file, or the run of a results file whose ``tests`` equal
-    ``tests`` (else whose ``repetition`` is ``repetition``; a file of one run:
-    that run)."""
+    ``tests`` and whose ``repetition`` is ``repetition`` (either alone where
+    the other is None or matches no run; a file of one run: that run)."""
     path = Path(path)
     doc = load_json(path)
     if isinstance(doc, dict) and doc.get("format") == "structbench-result":
         runs = doc.get("runs") or []
-        chosen = [r for r in runs if tests is not None and sorted(r.get("tests", [])) == sorted(tests)]
-        chosen = chosen or [r for r in runs if repetition is not None and r.get("repetition") == repetition]
+        same_tests = [r for r in runs if tests is not None and sorted(r.get("tests", [])) == sorted(tests)]
+        same_rep = [r for r in runs if repetition is not None and r.get("repetition") == repetition]
+        chosen = [r for r in same_tests if r in same_rep] or same_tests or same_rep
         chosen = chosen or (runs if len(runs) == 1 else [])
         if not chosen:
             raise IdentificationError(f"{path}: no run of tests {tests} or repetition {repetition} among its "
