@@ -16,7 +16,7 @@ HELP = ("predict the standard errors (Cramer-Rao bounds) a method will reach on 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", metavar="CAMPAIGN.toml", help="the campaign (its structure is the planning model)")
-    parser.add_argument("--method", required=True, help="least-squares or modal")
+    parser.add_argument("--method", required=True, help="least-squares, modal or updating")
     parser.add_argument("--model", metavar="NAME_OR_TOML", help="planning model instead of the campaign's structure")
     parser.add_argument("--test", metavar="NAME", help="test group (default: the campaign's first)")
     parser.add_argument("--candidates", metavar="FILE", help="candidate sensors, TOML or CSV (docs/plan.md)")

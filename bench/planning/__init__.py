@@ -4,7 +4,8 @@ Monte Carlo check (docs/plan.md).
 
 One module per job: :mod:`.response` (noise-free responses from the
 planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
-frequencies and damping), :mod:`.layouts` (effective independence and
+frequencies and damping), :mod:`.updating` (element parameters from a free
+decay's modes), :mod:`.layouts` (effective independence and
 D-optimal sensor layouts), :mod:`.campaign_files` (the campaign files a
 plan writes), :mod:`.verify` (``--verify``); the command line prints the
 table (``structbench.cli.plan``).
@@ -24,12 +25,15 @@ import numpy as np
 from structbench.models import Model, load_model
 from structbench.models.errors import UserError
 
-METHODS = ("least-squares", "modal")
+METHODS = ("least-squares", "modal", "updating")
 FORMAT = "structbench-plan"
 BOUNDS = {"least-squares": "Cramer-Rao of the regression (noise-free responses, the campaign's noise) plus the "
                            "second-order errors-in-variables term: the spread of the bias-compensated estimator",
           "modal": "Cramer-Rao of damped sinusoids in white noise: the spread of an efficient (maximum-likelihood) "
-                   "estimator; SSI-cov lands above it (1-5x in benchmarks/plan_accuracy.py)"}
+                   "estimator; SSI-cov lands above it (1-5x in benchmarks/plan_accuracy.py)",
+          "updating": "Cramer-Rao of the element parameters from the free decay's frequencies and mode shapes in "
+                      "unknown scale (damping and initial conditions nuisance): the spread of an efficient "
+                      "estimator that uses the record's modes as updating does"}
 __all__ = ["METHODS", "plan"]
 
 
@@ -60,6 +64,13 @@ def _modal(model: Model, specs) -> dict[str, Any]:
     if len(specs) != 1:
         raise UserError("modal planning takes one free-decay test (a group of one)", field="--test")
     return free_decay_bounds(model, specs[0])
+
+
+def _updating(model: Model, specs) -> dict[str, Any]:
+    from .updating import updating_bounds
+    if len(specs) != 1:
+        raise UserError("updating planning takes one free-decay test (a group of one)", field="--test")
+    return updating_bounds(model, specs[0])
 
 
 def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, test: str | None = None,
@@ -102,7 +113,7 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
         loaded = load_campaign(run_file)
         name, specs = _chosen_tests(loaded, name)
         say(f"layout: {document['layout']['chosen']} layout written to {run_file}")
-    document |= (_least_squares if method == "least-squares" else _modal)(planning, specs)
+    document |= {"least-squares": _least_squares, "modal": _modal, "updating": _updating}[method](planning, specs)
     document["bound"] = BOUNDS[method]
     if verify:
         from .verify import verify as run_verify

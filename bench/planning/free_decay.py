@@ -139,15 +139,20 @@ def amplitudes(d: Decay, rows: np.ndarray, orders: np.ndarray) -> np.ndarray:
     return np.stack([a, b], axis=2)
 
 
-def bases(d: Decay) -> tuple[np.ndarray, np.ndarray]:
-    """``Phi^T Phi / m`` and ``Q`` (2R, 2R) of the module docstring."""
+def grams(d: Decay) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``Phi^T Phi``, ``Psi^T Phi`` and ``Psi^T Psi`` (2R, 2R) of the module docstring."""
     t = np.arange(d.m) * d.dt
     env = np.exp(-np.outer(t, d.alpha))
     phase = np.outer(t, d.wd)
     Phi = np.empty((d.m, 2 * d.omega.size))
     Phi[:, 0::2], Phi[:, 1::2] = env * np.cos(phase), env * np.sin(phase)
     Psi = t[:, None] * Phi
-    PP, SP, SS = Phi.T @ Phi, Psi.T @ Phi, Psi.T @ Psi
+    return Phi.T @ Phi, Psi.T @ Phi, Psi.T @ Psi
+
+
+def bases(d: Decay) -> tuple[np.ndarray, np.ndarray]:
+    """``Phi^T Phi / m`` and ``Q`` (2R, 2R) of the module docstring."""
+    PP, SP, SS = grams(d)
     Q = SS - SP @ la.solve(PP, SP.T, assume_a="pos")
     return PP / d.m, 0.5 * (Q + Q.T)
 

@@ -7,9 +7,13 @@ The campaign's chosen test alone (``campaign_files.test_campaign``) with
 folder, :func:`structbench.identify` identifies every repetition, and per
 quantity the sample standard deviation over the N runs (``ddof = 1``; its
 own relative standard error about ``1 / sqrt(2 (N - 1))``) is compared with
-the prediction. Modes are matched to the planned ones by the nearest
-identified ``omega`` within :data:`MATCH` (relative); a mode found in
-fewer than 3 runs gets no achieved value (None).
+the prediction (``updating``: the modes of every repetition from
+``modal``, then ``updating`` from them, starting from the campaign's
+``[prior]`` if it has one, else from the planning model: the spread, not
+the convergence from a wrong start, is what is checked). Modes are
+matched to the planned ones by the nearest identified ``omega`` within
+:data:`MATCH` (relative); a mode found in fewer than 3 runs gets no
+achieved value (None).
 """
 from __future__ import annotations
 
@@ -71,6 +75,18 @@ def compare(document: dict[str, Any], runs: list[dict[str, Any]]) -> dict[str, A
             "median_ratio": float(np.median(ratios)) if ratios else None}
 
 
+def _updating(api, folder: Path, file: Path, test: str, model: str | Path | None, jobs: int | None,
+              options: dict[str, Any]) -> dict[str, Any]:
+    """Modes of every repetition (``modal``), then ``updating`` from them,
+    starting from the campaign's ``[prior]``, else from the planning model."""
+    import tomllib
+    api.identify(folder, "modal", model=model, groups=[test], jobs=jobs)
+    prior = None
+    if not (folder / "prior.json").is_file():
+        prior = model if model is not None else tomllib.loads(file.read_text(encoding="utf-8"))["structure"]
+    return api.identify(folder, "updating", model=model, groups=[test], jobs=jobs, prior=prior, **options)
+
+
 def verify(campaign: str | Path, test: str, method: str, repetitions: int, document: dict[str, Any],
            model: str | Path | None = None, seed: int = 0, out: str | Path | None = None,
            jobs: int | None = None, progress: Callable[[str], None] | None = None,
@@ -91,6 +107,9 @@ def verify(campaign: str | Path, test: str, method: str, repetitions: int, docum
         if status.failed:
             raise api.UserError(f"--verify: {status.failed} test(s) failed in {folder}/status.json", field="--verify")
         say(f"verify: identifying with {method}")
-        doc = api.identify(folder, method, model=model, groups=[test], jobs=jobs, **options)
+        if method == "updating":
+            doc = _updating(api, folder, file, test, model, jobs, options)
+        else:
+            doc = api.identify(folder, method, model=model, groups=[test], jobs=jobs, **options)
         result = compare(document, doc["runs"])
     return result | {"seed": seed, "repetitions": repetitions, "folder": str(out) if out is not None else None}
