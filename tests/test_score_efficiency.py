@@ -53,3 +53,26 @@ def test_too_few_runs_has_no_efficiency() -> None:
             for i in range(4)]
     assert efficiency(Path("."), {"method": "least-squares"}, runs) is None
     assert efficiency(Path("."), {"method": "modal"}, runs + runs) is None
+
+
+def test_updating_spread_beside_its_bound(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Updating from the modes of 8 knocks: score shows each stiffness's
+    spread beside the bound of `plan --method updating` (the same numbers),
+    and no estimator beats a Cramer-Rao bound (efficiency < 2 with 8 runs)."""
+    from test_plan_updating import decay_campaign, with_unknown
+    model = with_unknown(chain_model(tmp_path / "three.toml", [1.0, 1.0, 1.0], [400.0, 300.0, 200.0]),
+                         '["stiffness"]')
+    damped = 'unknown = ["stiffness"]\nrayleigh = [0.0, 0.002]'
+    model.write_text(model.read_text().replace('unknown = ["stiffness"]', damped))
+    campaign = decay_campaign(tmp_path, model, 0.01, 30.0, 0.02, node=3)
+    campaign.write_text(campaign.read_text().replace('name = "knock"\ndt', 'name = "knock"\nrepetitions = 8\ndt'))
+    out = tmp_path / "out"
+    sb.run_campaign(campaign, out, jobs=1)
+    sb.identify(out, "modal", jobs=1)
+    sb.identify(out, "updating", prior=model, jobs=1)
+    assert main(["score", str(out), "--json"]) == 0
+    eff = json.loads(capsys.readouterr().out)["updating"]["summary"]["efficiency"]
+    planned = {p["label"]: p["predicted_std"] for p in sb.plan(campaign, "updating")["parameters"]}
+    assert eff["runs"] == 8 and "updating" in eff["bound"]
+    assert {p["label"]: p["bound_std"] for p in eff["parameters"]} == pytest.approx(planned, rel=1e-9)
+    assert all(0 < p["efficiency"] < 2 for p in eff["parameters"])

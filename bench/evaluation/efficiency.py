@@ -1,6 +1,8 @@
 """The bound beside every figure: the achieved spread of each least-squares
-parameter over the Monte Carlo runs of a results file against its
-Cramer-Rao bound (``structbench plan``, :mod:`structbench.planning.fisher`).
+or updating parameter over the Monte Carlo runs of a results file against
+its Cramer-Rao bound (``structbench plan``: :mod:`structbench.planning.fisher`
+for least squares, :mod:`structbench.planning.updating` for updating from
+the modes of one free-decay test).
 
 Per parameter ``achieved_std`` is the sample standard deviation (ddof 1)
 of the estimates over the runs (SI units), ``bound_std`` the square root of
@@ -19,7 +21,7 @@ With a random force drawn anew per repetition the bound is the mean of the
 predicted variances of up to :data:`MAX_REALISATIONS` of the runs'
 realisations (law of total variance).
 
-Only for ``least-squares`` results with at least :data:`MIN_RUNS` runs of
+Only for ``least-squares`` and ``updating`` results with at least :data:`MIN_RUNS` runs of
 one set of tests (the set with the most runs when a file holds several);
 the sample deviation of N runs is itself uncertain by about
 ``1 / sqrt(2 (N - 1))``. When no bound can be computed (an external FMU,
@@ -39,6 +41,8 @@ import numpy as np
 from structbench.models.errors import UserError
 
 MIN_RUNS = 5
+UPDATING = ("Cramer-Rao bound of updating from the free decay's frequencies and mode shapes (structbench plan "
+            "--method updating)")
 MAX_REALISATIONS = 5
 DEFAULT = {"estimator": "bias-compensated", "samples": None, "integration": "auto", "weighting": "noise"}
 
@@ -114,6 +118,19 @@ def bound(campaign, tests: list[str], repetitions: list[int],
     return labels, np.sqrt(np.mean(variances, axis=0)), len(picked)
 
 
+def updating_bound(campaign, tests: list[str]) -> tuple[list[str], np.ndarray, int]:
+    """Labels and bound standard deviations (q,) SI (NaN: undetermined) of
+    updating from the modes of one free-decay test (:mod:`structbench.planning.updating`)."""
+    from structbench.planning.updating import updating_bounds
+    specs = [t for t in campaign.tests if t.name in tests]
+    if len(specs) != 1:
+        raise UserError(f"the updating bound is for the modes of one free-decay test, these runs used {tests}",
+                        field="tests")
+    planned = updating_bounds(campaign.true_model, specs[0])["parameters"]
+    std = np.array([np.nan if p["predicted_std"] is None else p["predicted_std"] for p in planned])
+    return [p["label"] for p in planned], std, 1
+
+
 def _describe(options: dict[str, Any], details: dict[str, Any]) -> tuple[str, bool]:
     """What the bound is, and whether the results used the estimator it bounds."""
     used = {k: options.get(k, v) for k, v in DEFAULT.items()}
@@ -135,7 +152,8 @@ def efficiency(folder: Path, header: dict[str, Any], runs: list[dict[str, Any]],
     (not least squares, fewer than :data:`MIN_RUNS` runs of one set of tests).
     ``load``: returns the folder's campaign (default :func:`load_folder_campaign`;
     a caller scoring several files passes one that loads it once)."""
-    if header.get("method") != "least-squares":
+    method = header.get("method")
+    if method not in ("least-squares", "updating"):
         return None
     sets: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for r in runs:
@@ -147,11 +165,14 @@ def efficiency(folder: Path, header: dict[str, Any], runs: list[dict[str, Any]],
     if len(chosen) < MIN_RUNS:
         return None
     options = header.get("options") or {}
-    text, same = _describe(options, chosen[0].get("details") or {})
+    text, same = _describe(options, chosen[0].get("details") or {}) if method == "least-squares" else (UPDATING, True)
     out: dict[str, Any] = {"tests": list(tests), "runs": len(chosen), "bound": text, "same_settings": same}
     try:
         campaign = load() if load is not None else load_folder_campaign(folder)
-        labels, std, realisations = bound(campaign, list(tests), [int(r["repetition"]) for r in chosen], options)
+        if method == "least-squares":
+            labels, std, realisations = bound(campaign, list(tests), [int(r["repetition"]) for r in chosen], options)
+        else:
+            labels, std, realisations = updating_bound(campaign, list(tests))
     except UserError as err:
         return out | {"reason": f"no bound: {err}", "parameters": []}
     table = {lab: s for lab, s in zip(labels, std)}
