@@ -76,3 +76,23 @@ def test_updating_spread_beside_its_bound(tmp_path: Path, capsys: pytest.Capture
     assert eff["runs"] == 8 and "updating" in eff["bound"]
     assert {p["label"]: p["bound_std"] for p in eff["parameters"]} == pytest.approx(planned, rel=1e-9)
     assert all(0 < p["efficiency"] < 2 for p in eff["parameters"])
+
+
+def test_updating_undetermined_parameters_have_no_bound(tmp_path: Path) -> None:
+    """Masses and stiffnesses all unknown: their common scale is undetermined
+    by modes, so no parameter has a bound; the efficiency rows say null (valid
+    JSON), not NaN."""
+    from structbench.evaluation.efficiency import efficiency
+    from structbench.harness.campaign import load_campaign
+    from test_plan_updating import decay_campaign
+    model = chain_model(tmp_path / "two.toml", [1.0, 2.0], [300.0, 200.0])
+    campaign = load_campaign(decay_campaign(tmp_path, model, 0.01, 30.0, 0.02))
+    rng = np.random.default_rng(1)
+    runs = [{"repetition": i, "tests": ["knock"], "parameters": [
+        {"label": lab, "value": v * (1 + 0.01 * rng.standard_normal())}
+        for lab, v in (("mass[1]", 1.0), ("mass[2]", 2.0), ("stiffness[3]", 300.0), ("stiffness[4]", 200.0))]}
+        for i in range(6)]
+    eff = efficiency(tmp_path, {"method": "updating"}, runs, lambda: campaign)
+    assert [p["bound_std"] for p in eff["parameters"]] == [None] * 4
+    assert eff["median"] is None
+    json.dumps(eff, allow_nan=False)

@@ -97,7 +97,8 @@ def efficiency_lines(eff: dict[str, Any]) -> list[str]:
     out = [f"{head}: efficiency (bound / achieved std, 1 at best) median {eff['median']:.3f} "
            f"(range {eff['min']:.3f} .. {eff['max']:.3f}, 10-90 %: {eff['p10']:.3f} .. {eff['p90']:.3f})",
            f"    bound: {eff['bound']}"]
-    worst = sorted(eff["parameters"], key=lambda p: p["efficiency"] if _finite(p["efficiency"]) else -1)[:3]
+    bounded = [p for p in eff["parameters"] if p["efficiency"] is not None]  # null: no bound (undetermined)
+    worst = sorted(bounded, key=lambda p: p["efficiency"] if _finite(p["efficiency"]) else -1)[:3]
     out.append("    lowest: " + ", ".join(f"{p['label']} {_num(p['efficiency'], '.3f', 0)} (achieved "
                                           f"{p['achieved_std']:.3g}, bound {p['bound_std']:.3g})" for p in worst))
     return out

@@ -146,6 +146,10 @@ def _describe(options: dict[str, Any], details: dict[str, Any]) -> tuple[str, bo
     return text + ": the estimator these results used", True
 
 
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
 def efficiency(folder: Path, header: dict[str, Any], runs: list[dict[str, Any]],
                load: Callable[[], Any] | None = None) -> dict[str, Any] | None:
     """``summary.efficiency`` of one results file (module docstring), or None
@@ -186,7 +190,7 @@ def efficiency(folder: Path, header: dict[str, Any], runs: list[dict[str, Any]],
     bounds = np.array([table[lab] for lab in names])
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where(achieved > 0, bounds / achieved, np.nan)
-    rows = [{"label": lab, "achieved_std": float(a), "bound_std": float(b), "efficiency": float(e)}
+    rows = [{"label": lab, "achieved_std": float(a), "bound_std": _finite(b), "efficiency": _finite(e)}
             for lab, a, b, e in zip(names, achieved, bounds, eff)]
     finite = eff[np.isfinite(eff)]
     stats = ({"median": float(np.median(finite)), "p10": float(np.percentile(finite, 10)),
