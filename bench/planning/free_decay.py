@@ -201,9 +201,25 @@ def omega_zeta_covariance(d: Decay, J: np.ndarray) -> np.ndarray:
     return np.einsum("rij,rjk,rlk->ril", T, blocks, T)
 
 
-def free_decay_bounds(model: Model, test: TestSpec) -> dict:
-    """Predicted ``modes`` (omega, zeta and their standard errors, SI) and
-    the modes left out as not visible, for ``test`` on ``model``."""
+@dataclass(frozen=True)
+class Observed:
+    """A free decay as the modal channels see it: its visible modes ``d``,
+    the channels, their shape rows and derivative orders (C,), amplitudes
+    ``beta`` (C, R, 2) and noise ``sigma`` (C,), and the frequencies (rad/s)
+    of the modes left out as not visible."""
+
+    d: Decay
+    channels: list[Channel]
+    rows: np.ndarray
+    orders: np.ndarray
+    beta: np.ndarray
+    sigma: np.ndarray
+    hidden: np.ndarray
+
+
+def observe(model: Model, test: TestSpec) -> Observed:
+    """The free decay ``test`` on ``model`` through its modal channels
+    (:class:`Observed`); fails without motion sensors or sensor noise."""
     d = decay(model, test)
     chans = modal_channels(test)
     if not chans:
@@ -214,15 +230,18 @@ def free_decay_bounds(model: Model, test: TestSpec) -> dict:
     if not ratio.any():
         raise UserError("the test has no sensor noise on its motion channels: the bounds are zero", field="noise")
     beta = amplitudes(d, rows, orders)
-    gram, _ = bases(d)
-    sigma = channel_sigma(beta, ratio, gram)
+    sigma = channel_sigma(beta, ratio, bases(d)[0])
     seen = visible(d, beta, sigma)
-    hidden = d.omega[~seen]
-    d = Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
-    beta = beta[:, seen]
-    _, Q = bases(d)
-    info = channel_information(beta, sigma, Q)
-    cov = omega_zeta_covariance(d, info.sum(axis=0))
+    kept = Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
+    return Observed(kept, chans, rows, orders, beta[:, seen], sigma, d.omega[~seen])
+
+
+def free_decay_bounds(model: Model, test: TestSpec) -> dict:
+    """Predicted ``modes`` (omega, zeta and their standard errors, SI) and
+    the modes left out as not visible, for ``test`` on ``model``."""
+    o = observe(model, test)
+    _, Q = bases(o.d)
+    cov = omega_zeta_covariance(o.d, channel_information(o.beta, o.sigma, Q).sum(axis=0))
     modes = [{"omega": float(w), "predicted_omega_std": float(np.sqrt(c[0, 0])), "zeta": float(z),
-              "predicted_zeta_std": float(np.sqrt(c[1, 1]))} for w, z, c in zip(d.omega, d.zeta, cov)]
-    return {"modes": modes, "not_visible": [float(w) for w in hidden], "channels": [c.name for c in chans]}
+              "predicted_zeta_std": float(np.sqrt(c[1, 1]))} for w, z, c in zip(o.d.omega, o.d.zeta, cov)]
+    return {"modes": modes, "not_visible": [float(w) for w in o.hidden], "channels": [c.name for c in o.channels]}

@@ -42,7 +42,7 @@ from structbench.identifier.updating.sensitivity import AffineModel
 from structbench.models import Model, Structure
 from structbench.models.errors import UserError
 
-from .free_decay import MAX_MODES, ORDER, Decay, amplitudes, bases, channel_sigma, decay, grams, modal_channels, visible
+from .free_decay import MAX_MODES, Decay, grams, observe
 
 RANK_TOL = 1e-12  # least eigenvalue of the reduced information, relative to the largest (1e-6 on singular values)
 LOADED = 0.01  # a parameter whose unit vector has more than this share in the undetermined subspace
@@ -135,21 +135,10 @@ def updating_bounds(model: Model, test: TestSpec, kinds: tuple[str, ...] | None 
     sel = np.flatnonzero(model.kind_mask(chosen))
     if sel.size == 0:
         raise UserError(f"{model.name} has no unknown mass or stiffness parameter to update", field="--model")
-    d = decay(model, test)
-    chans = modal_channels(test)
-    if not chans:
-        raise UserError(f"test {test.group!r} has no motion sensor", field="sensors")
-    rows = np.array([model.dof_index(*c.dof) for c in chans])
-    orders = np.array([ORDER[c.quantity] for c in chans])
-    ratio = np.array([test.noise.ratio(c.quantity) for c in chans])
-    if not ratio.any():
-        raise UserError("the test has no sensor noise on its motion channels: the bounds are zero", field="noise")
-    beta = amplitudes(d, rows, orders)
-    sigma = channel_sigma(beta, ratio, bases(d)[0])
-    seen = visible(d, beta, sigma)
-    if not seen.any():
+    o = observe(model, test)
+    d, rows = o.d, o.rows
+    if not d.omega.size:
         raise UserError(f"no mode of {model.name} is visible in test {test.group!r}", field="sensors")
-    d = Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
     affine = AffineModel(model, sel, rows)
     M, K = affine.matrices(np.zeros(sel.size))
     lam, phi_all = affine.modes(M, K, min(model.n_dof, MAX_MODES + 6))  # rigid-body modes too
@@ -160,7 +149,7 @@ def updating_bounds(model: Model, test: TestSpec, kinds: tuple[str, ...] | None 
         sign = np.sign(phi_all[:, i] @ d.shapes[:, r]) or 1.0
         dl, dp = affine.derivatives(M, K, lam[i], phi_all[:, i])
         dlam[r], dphi[:, r], phi[:, r] = dl, sign * dp, sign * phi_all[rows, i]
-    F = _information(d, beta[:, seen], sigma, phi, dphi, dlam, orders)
+    F = _information(d, o.beta, o.sigma, phi, dphi, dlam, o.orders)
     cov, rank, null = reduced_covariance(F, sel.size)
     loaded = np.sum(null**2, axis=1) > LOADED
     labels = [model.parameters[j].label for j in sel]
@@ -171,4 +160,4 @@ def updating_bounds(model: Model, test: TestSpec, kinds: tuple[str, ...] | None 
     combos = [[{"label": labels[i], "weight": float(vec[i])} for i in np.argsort(-np.abs(vec))[:4]]
               for vec in null.T]
     return {"parameters": params, "rank": rank, "undetermined": combos, "modes_used": d.omega.tolist(),
-            "channels": [c.name for c in chans]}
+            "channels": [c.name for c in o.channels]}
