@@ -261,7 +261,7 @@ def test_no_modal_data_is_a_clear_error(tmp_path):
 
     folder, prior, _ = _folder(tmp_path)
     with pytest.raises(IdentificationError, match=r"needs identified modal data: --option modal=FILE") as err:
-        sb.identify(folder, "updating", model=prior, jobs=1)
+        sb.identify(folder, "updating", model=prior, jobs=1, data="modal")  # data=auto: FRFs of the force
     assert "modal-data-format.md" in str(err.value) and "--method modal" in str(err.value)
     assert not (folder / "results" / "updating.json").exists()
     with pytest.raises(IdentificationError, match="no modal data file 'missing.json'"):

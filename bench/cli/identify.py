@@ -47,7 +47,7 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
         "--option modal=FILE) starting from the model given as the prior",
         {"modal": None, "kinds": None, "bounds": [-0.9, 3.0], "starts": 1, "scatter": 0.3, "seed": 0,
          "regularisation": "auto", "rank_tol": 1e-06, "shape_std": None, "modes": None, "parameters": None,
-         "max_nfev": 200, "tol": 1e-10, "localise": False, "level": 0.001}, {}),
+         "max_nfev": 200, "tol": 1e-10, "localise": False, "level": 0.001, "data": "auto"}, {}),
 }
 PLUGIN_GROUP = "structbench.identifiers"  # docs/plugins.md
 
