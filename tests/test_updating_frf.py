@@ -6,6 +6,7 @@ standard errors under FRF noise, and the folder path from harmonic traces
 through ``identify --method updating --option data=frf``."""
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -172,6 +173,19 @@ def test_folder_path_from_harmonic_traces_through_the_api(tmp_path):
     assert run["details"]["frf"]["damping"] == "the prior's, not updated"
     true = truth.values[truth.kind_mask(("stiffness",))]
     np.testing.assert_allclose([p["value"] for p in run["parameters"]], true, rtol=1e-4)
+    # both: the FRFs and a lab's modal data, each weighted by its stated errors
+    found = truth.modes(3)
+    shapes = found.shapes / np.abs(found.shapes).max(axis=0)
+    lab = {"format": "structbench-modal-data", "format_version": 1, "dofs": [[1, "x"], [2, "x"], [3, "x"]],
+           "modes": [{"omega": float(w), "omega_std": 1e-3 * float(w), "shape": s.tolist(), "shape_std": 0.01}
+                     for w, s in zip(found.omega, shapes.T)]}
+    (tmp_path / "lab.json").write_text(json.dumps(lab))
+    doc = sb.identify(folder, "updating", model=prior, jobs=1, kinds="stiffness", joint=True, data="both",
+                      modal=str(tmp_path / "lab.json"), tag="both")
+    run = doc["runs"][0]
+    assert run["details"]["data"] == "both" and run["details"]["modes"] == 3
+    assert run["details"]["n_data"] == run["details"]["frf"]["n_data"] + 3 + 3 * 3
+    np.testing.assert_allclose([p["value"] for p in run["parameters"]], true, rtol=1e-3)
     with pytest.raises(IdentificationError, match="needs identified modal data"):
         sb.identify(folder, "updating", model=prior, jobs=1, joint=True, data="modal")
     with pytest.raises(IdentificationError, match="data must be one of"):
