@@ -430,11 +430,15 @@ def update_frf(model: Structure, frf: FrfData, kinds: str | Sequence[str] | None
     if measured is not None:
         res = Combined(Residuals(AffineModel(model, sel, _sensors(model, measured)), measured), res_frf)
     lower, upper = np.full(sel.size, lo), np.full(sel.size, hi)
-    stages = [res_frf.with_eta(e, "log") for e in ([] if damped else ETAS)] + [res_frf.with_eta(0.0, "log")]
+    stages: list[Any] = [res_frf.with_eta(e, "log") for e in ([] if damped else ETAS)] + [res_frf.with_eta(0.0, "log")]
+    guide = measured if measured is not None else _natural(frf)
+    if guide is not None:  # the natural frequencies place the model's resonances during the search
+        guided = Residuals(AffineModel(model, sel, _sensors(model, guide)), guide)
+        stages = [Combined(guided, stage) for stage in stages]
 
     def from_start(x: np.ndarray, floor: float) -> Fit:
         nfev = 0
-        for stage in stages:  # continuation in a fictitious loss factor (undamped prior)
+        for stage in stages:  # log-magnitude, continuation in a fictitious loss factor (undamped prior)
             step = fit(stage, x, floor, lower, upper, max_nfev, max(tol, SEARCH_TOL))
             x, nfev = step.alpha, nfev + step.nfev
         out = fit(res_frf, x, floor, lower, upper, max_nfev, max(tol, SEARCH_TOL))

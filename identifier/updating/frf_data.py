@@ -21,7 +21,10 @@ Two sources (:func:`from_traces` picks per test group):
   (:func:`structbench.identifier.perturbation.harmonic.free_frequencies`,
   seeded by the prior's). The excitation frequency is estimated from the
   responses when the trace declares actuator frequency noise (the
-  commanded one otherwise). Why not :func:`structbench.identifier.frf.estimate`
+  commanded one otherwise). A line within half a frequency bin
+  (``pi / T`` of a record of ``T`` s) of a natural frequency found in the
+  records is left out (``details.unresolved``): the record cannot separate
+  the forced response from the free vibration there. Why not :func:`structbench.identifier.frf.estimate`
   here: its per-block fit at the commanded frequency is meant for damped
   structures in steady state; on the undamped chapter 4 records (abrupt
   start, free vibration that never decays, 0.5 % actuator frequency noise)
@@ -281,7 +284,7 @@ def harmonic_lines(traces: Sequence[Trace], prior: Structure, track: bool | None
     omega, H, std = np.empty(L), np.empty((m, L), complex), np.empty((m, L))
     gain, phase, hold, force = np.zeros(L), np.zeros(L), np.empty(L), []
     fisher = np.zeros(free.size)
-    tracked = []
+    tracked, unresolved = [], []
     for l, (t, keep, y, f) in enumerate(windows):
         time = t.time[keep]
         w0 = t.omega
@@ -306,12 +309,16 @@ def harmonic_lines(traces: Sequence[Trace], prior: Structure, track: bool | None
                                       field="force")
         omega[l], H[:, l] = w, c / F0
         std[:, l] = np.sqrt(0.5 * (s_re**2 + s_im**2)) / abs(F0)  # circular: the phase of F0 mixes re and im
+        if np.any(found & (np.abs(here - w) < 0.5 * 2 * np.pi / (time[-1] - time[0]))):
+            std[:, l] = np.nan  # the free vibration at a natural frequency this close is not separable
+            unresolved.append(float(w))
         hold[l] = t.step
         force.append(f.dof)
     return FrfData(omega, H, std, order, dofs, force, gain, phase, hold,
                    f"{len(tests)} harmonic test(s) {tests[0].test} ..",
                    {"estimate": "harmonic: forced plus free-vibration fit per test",
                     "commanded_omega": [t.omega for t, *_ in windows], "omega": tracked,
+                    "unresolved": unresolved,
                     "natural_frequencies": [float(v) if ok else None for v, ok in zip(free, found)]},
                    np.where(found, free, np.nan), np.where(found & (fisher > 0), 1 / np.sqrt(np.maximum(fisher, 1e-300)),
                                                            np.nan))
