@@ -1,9 +1,8 @@
 """Harmonics (periodic components: mains multiples, rotating machinery) in
 stationary records, told apart from modes.
 
-A harmonic is a sinusoid ``a_c cos(omega t + phi_c)`` on every channel c,
-added to the random response. Two established tests tell it from a mode
-(Brincker, Andersen & Moller 2000; Jacobsen 2006):
+A harmonic is a sinusoid ``a_c cos(omega t + phi_c)`` on every channel c added to the random
+response. Two established tests tell it from a mode (Brincker, Andersen & Moller 2000; Jacobsen 2006):
 
 1. the probability density of the response filtered to a narrow band
    around ``omega``: a sinusoid's is bimodal, kurtosis 1.5; a random
@@ -21,49 +20,63 @@ added to the random response. Two established tests tell it from a mode
    standard error ``3 / sqrt(K)``; ``K`` is chosen per line to make the
    drop ``1.5 rho^2`` largest against it (:func:`band_lines`);
 2. the damping ratio of the SSI poles there: near zero, the median
-   ``|zeta|`` over the model orders the pole is stable at under ``ZETA``
-   (:mod:`identifier.modal`; a real structure's modes are damped more).
+   ``|zeta|`` over the model orders the pole is stable at indistinguishable
+   from 0 given the record (fewer than ``STILL`` decay times in it), and the
+   shape of the pole's spectral peak: a mode's spreads over its half-power
+   band, a sinusoid's over the window's main lobe (2 lines).
 
 Candidates are the lines of each record's spectrum (:func:`detect`):
 local maxima of the Hann-windowed periodogram summed over the RMS-scaled
 channels that stand ``LINE`` times above the median of the lines 3 to
-``WINDOW`` either side. Each line's frequency is refined (interpolation of
-the log spectrum, then a parabola through the windowed transform's power
-0.05 lines either side), its complex amplitude per channel fitted by least
-squares and its band kurtosis ``kappa`` measured, with ``z = (3 - kappa)
-sqrt(K) / 3``, its drop below a random response's in standard errors.
-Lines of ``kappa < DOUBTFUL`` are candidates. Then (:func:`screen`,
-:func:`confirm`):
+``WINDOW`` either side, frequency refined (log-spectrum interpolation, then
+a parabola through the windowed transform's power 0.05 lines either side),
+complex amplitude per channel fitted by least squares, band kurtosis
+``kappa`` measured, ``z = (3 - kappa) sqrt(K) / 3`` its drop in standard
+errors; never over a band that a stronger periodogram value passes (its
+kurtosis would be that peak's: the skirt of a strong narrow mode has local
+maxima above the running median). ``kappa < DOUBTFUL``: a candidate. With
+``T`` the records' total length and, per SSI mode, ``D = |zeta| omega T``
+its decay times in it (``|zeta|``: the median over its stable poles) and
+``h = D / (2 pi)`` its half-power half-width in spectral lines ``2 pi / T``
+(:func:`screen`, :func:`confirm`):
 
-- ``z >= SURE``: a harmonic (test ``kurtosis``), subtracted from the
-  records before SSI, so that it takes no model order and biases no mode
-  near it (subtracting a line that is a mode's own random peak instead
-  would notch the mode: the weaker candidates are not subtracted);
-- an SSI mode of near-zero damping at a candidate line of ``z >= LIKELY``,
-  or else whose band kurtosis measured in the cleaned records (up to
-  ``BLOCKS[1]`` lines) has ``z >= SURE``: a harmonic
-  (``kurtosis+damping``), dropped from the modes;
-- any other candidate line of ``z >= LIKELY`` that no narrow damped SSI
-  mode explains (none within ``SKIRT`` half-power bandwidths ``zeta_r
-  omega_r`` plus 1.5 lines whose bandwidth ``zeta_r omega_r T / pi`` is
-  under ``WINDOW`` lines: the running median does not follow so narrow a
-  peak, whose random spikes are lines; a broad mode's peak is smooth over
-  ``WINDOW`` lines, and a line on it is a harmonic on the mode): a
-  harmonic (``kurtosis``).
+- ``z >= SURE``: a harmonic (``kurtosis``), subtracted before SSI so that it takes no model order
+  and biases no mode near it (the weaker ones are not: a mode's own random peak would be notched);
+- near-zero damping, relative to what the record resolves: ``D < STILL`` (the support tests'
+  ``MIN_DECAYS``; zeta's short-record bias is ``1 / (omega T)``, one decay time,
+  :mod:`identifier.modal.support`), or ``|zeta| < ZETA_FLOOR``, the least damping the support tests
+  count. At a sure line, a doubtful one of ``z >= LIKELY``, or else of band kurtosis ``z >= SURE``
+  over up to ``BLOCKS[1]`` lines of the cleaned records: a harmonic (``kurtosis+damping``), dropped
+  from the modes. Both ``D < STILL`` and ``|zeta| < ZETA_FLOOR`` without a low kurtosis: one too
+  (``damping``; the support tests would count it damped at the floor and report it); the other ``D
+  < STILL`` are left to the support tests, which reject them (no damping determined, no harmonic shown);
+- a damped SSI mode whose peak is a line's (``line``, :func:`_pole_line`): the strongest line within
+  ``max(h, 2)`` lines of it stands ``CONC`` times above what a mode of half-width ``h`` gives (``P_j``
+  over the median of the lines 4 to ``max(h, 8)`` from it, times the median of ``1 / (1 + (d /
+  h)^2)`` there; a periodogram scatters exponentially about its mean, so a mode's line exceeds that
+  about once in 1e4 lines), and, when ``h >= H_MIN``, its band does not rise ``RISE`` times over the
+  lines 2 to 4 half-widths away (a broad mode with a harmonic on it rises);
+- any other candidate of ``z >= LIKELY`` that no narrow damped SSI mode explains (none within
+  ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` plus 1.5 lines whose bandwidth ``2 h`` is under
+  ``WINDOW`` lines: the running median does not follow so narrow a peak, whose random spikes are
+  lines; a broad mode's peak is smooth over ``WINDOW`` lines, and a line on it is a harmonic on the
+  mode): ``kurtosis``. A sure line at a narrow damped mode is that mode's peak and not listed (it
+  was subtracted: the mode stays, slightly biased) when its drop counted over ``min(K, D)`` values is
+  under ``SURE``: a mode's envelope takes about one independent value per decay time, so a lightly
+  damped mode of a short record (few values, many blocks) has a low kurtosis far more often than
+  ``3 / sqrt(K)`` says.
 
-Fails (misses the harmonic) when its line does not stand ``LINE`` times
-above the random response near it, or when the band the record allows
-holds as much random power as the harmonic (a weak harmonic on a mode's
-peak); takes a random peak for a harmonic when its kurtosis estimate
-falls ``LIKELY`` standard errors under 3 by chance away from every narrow
-damped SSI mode (about one line in ten such peaks). A mode of damping
-under ``ZETA`` at a line of ``z >= LIKELY`` would be taken for a harmonic.
-Frequencies that drift over the record (a machine run up) are not lines
-and are not found; free responses are not searched. An undamped
-structure's random response (``zeta = 0``: each mode a sinusoid of slowly
-wandering amplitude, near-zero damping at every order) is taken for
-harmonics: the tests cannot tell them apart (the chapter 5 beam without
-its ``[parameters]`` damping: 15 of its lines listed in a 2000 s record).
+Fails (misses the harmonic) when its line does not stand ``LINE`` times above the random response
+near it or the band the record allows holds as much random power as the harmonic (weak, on a mode's
+peak); it is then reported as a mode when SSI fits it a pole of ``STILL`` to about ``2 pi H_MIN``
+decay times and damping over ``ZETA_FLOOR`` (a peak of 0.3 to 4 lines, as such a mode gives), or a
+broader pole whose line stands under ``CONC`` times a mode's peak. Takes for a harmonic a random
+peak whose kurtosis falls ``LIKELY`` standard errors under 3 by chance away from every narrow damped
+SSI mode (about one such peak in ten), and a mode of under ``STILL`` decay times or damping under
+``ZETA_FLOOR`` with a low kurtosis (the record cannot tell it from a sinusoid). Drifting frequencies
+(a run-up) are not lines; free responses are not searched. An undamped structure's random response
+(each mode a sinusoid of wandering amplitude) is taken for harmonics (the chapter 5 beam without its
+``[parameters]`` damping: 15 lines listed in a 2000 s record).
 """
 from __future__ import annotations
 
@@ -72,22 +85,26 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
+from .support import MIN_DECAYS, ZETA_FLOOR
+
 LINE = 20.0  # least periodogram line over the median of its neighbours ...
 WINDOW = 64  # ... the lines 3 to WINDOW either side
 SURE = 3.0  # band kurtosis this many of a random response's standard errors 3 / sqrt(K) under 3: a harmonic
 LIKELY = 1.25  # ... this many: a harmonic unless a narrow damped SSI mode explains the line
 DOUBTFUL = 2.6  # a line of band kurtosis below this is a candidate
 SKIRT = 2.0  # a line within this many half-power bandwidths zeta omega (+1.5 lines) of a narrow damped mode is its peak
-ZETA = 0.003  # median |zeta| over the stable poles below this: near-zero damping
+STILL = MIN_DECAYS  # decay times zeta omega T over the records under which an SSI mode is still (not a supported mode)
+CONC = 15.0  # a line in a pole's band this many times a mode's peak there (_pole_line): the pole is the line's ...
+H_MIN = 4.0  # ... and, for a pole of half-power half-width zeta omega T / (2 pi) of at least this many lines, ...
+RISE = 2.0  # ... when its band does not rise this many times over the lines 2-4 half-widths away
 MAX_LINES = 40  # lines tested per record (the strongest)
 BLOCKS = (16, 1024)  # band of the kurtosis, in spectral lines: a power of 2 within these (band_lines)
 
 
 @dataclass(eq=False)
 class Line:
-    """One spectral line: ``omega`` rad/s, its complex amplitude per channel
-    (m,) in the channels' units, band kurtosis, line-to-median ratio and
-    band width in spectral lines (``blocks``)."""
+    """A spectral line: ``omega`` rad/s, complex amplitude per channel (m,) in the channels' units,
+    band kurtosis, line-to-median ratio, band in spectral lines (``blocks``)."""
 
     omega: float
     amplitude: np.ndarray
@@ -123,8 +140,7 @@ def _power(y: np.ndarray, omega: float, t: np.ndarray, window: np.ndarray) -> fl
 
 
 def fit(y: np.ndarray, omega: float, t: np.ndarray) -> np.ndarray:
-    """Least-squares complex amplitudes (m,) of ``a cos(omega t) + b sin(omega t)``
-    in ``y`` (m, n): ``a - i b`` per channel."""
+    """Least-squares amplitudes ``a - i b`` (m,) of ``a cos(omega t) + b sin(omega t)`` in ``y`` (m, n)."""
     c, s = np.cos(omega * t), np.sin(omega * t)
     gram = np.array([[c @ c, c @ s], [c @ s, s @ s]])
     ab = np.linalg.solve(gram, np.vstack([y @ c, y @ s]))
@@ -142,9 +158,8 @@ def subtract(y: np.ndarray, lines: list[Line], dt: float) -> np.ndarray:
 
 def kurtosis(y: np.ndarray, omega: float, dt: float, blocks: int, amplitude: np.ndarray,
              noise: np.ndarray) -> tuple[float, int]:
-    """Kurtosis of ``y`` (m, n) filtered to ``blocks`` spectral lines around
-    ``omega`` rad/s (module docstring), and the blocks used: at least 8
-    samples and 2 periods per block, at least 8 blocks (else NaN)."""
+    """Kurtosis of ``y`` (m, n) filtered to ``blocks`` lines around ``omega`` rad/s (module
+    docstring), and the blocks used: 8 samples and 2 periods per block, 8 blocks at least (else NaN)."""
     n = y.shape[1]
     least = max(8, int(np.ceil(4 * np.pi / (omega * dt))))
     k = min(blocks, n // least)
@@ -168,74 +183,91 @@ def _hann_gain(x: np.ndarray) -> np.ndarray:
 
 
 def band_lines(P: np.ndarray, bg: np.ndarray, j: int, n: int, omega: float, dt: float) -> int:
-    """Blocks ``K`` (the band in the record's spectral lines) that best tell
-    the line at ``j`` from a random response: the line's power ``L`` (``P``
-    over ``bg`` within 2 lines), the random power through the Hann blocks
-    ``G_K = sum_k |W((k - j) / K)|^2 B_k`` (``B``: ``P`` with the line's
-    lines replaced by ``bg``), ``rho = L / (L + G_K)``; the largest
-    ``rho^2 sqrt(K)`` (the kurtosis drop ``1.5 rho^2`` over a random
-    response's standard error ``3 / sqrt(K)``) over K = 16, 32, ..., 1024
-    that the record holds (:func:`kurtosis`)."""
+    """Blocks ``K`` (band in record lines) that best tell the line at ``j``
+    from a random response: the largest ``rho^2 sqrt(K)`` (drop ``1.5 rho^2``
+    over the standard error ``3 / sqrt(K)``), ``rho = L / (L + G_K)``, ``L``
+    the line's power (``P`` over ``bg`` within 2 lines), ``G_K = sum_k |W((k -
+    j) / K)|^2 B_k`` the random power through the Hann blocks (``B``: ``P``, the
+    line's lines replaced by ``bg``), over K = 16, ..., 1024 that the record
+    holds (:func:`kurtosis`) and no stronger value passes (``max_k |W|^2 B_k
+    <= P_j``); 0 when even K = 16 is passed."""
     least = max(8, int(np.ceil(4 * np.pi / (omega * dt))))
     B = P.copy()
     B[max(j - 3, 0):j + 4] = bg[max(j - 3, 0):j + 4]
     line = float(np.sum(P[max(j - 2, 0):j + 3] - bg[max(j - 2, 0):j + 3]))
-    best, score = BLOCKS[0], -1.0
+    best, score = 0, -1.0
     for K in 2 ** np.arange(int(np.log2(BLOCKS[0])), int(np.log2(BLOCKS[1])) + 1):
         if n // K < least:
             break
         lo, hi = max(j - 6 * K, 0), min(j + 6 * K + 1, P.size)
-        G = float(_hann_gain((np.arange(lo, hi) - j) / K) @ B[lo:hi])
-        value = (line / (line + G))**2 * np.sqrt(K)
+        gain = _hann_gain((np.arange(lo, hi) - j) / K)
+        if np.max(gain * B[lo:hi]) > P[j]:  # a stronger peak passes the band: its kurtosis, not the line's
+            break
+        value = (line / (line + float(gain @ B[lo:hi])))**2 * np.sqrt(K)
         if value > score:
             best, score = int(K), value
     return best
 
 
+def measure(y: np.ndarray, dt: float, X: np.ndarray, P: np.ndarray, bg: np.ndarray, j: int) -> Line | None:
+    """The line at periodogram index ``j`` of ``y`` (m, n), frequency
+    refined, amplitude fitted, band kurtosis measured (module docstring);
+    ``None`` when a stronger value passes every band (:func:`band_lines`)."""
+    m, n = y.shape
+    t = np.arange(n) * dt
+    a, b, c = np.log(P[j - 1:j + 2])
+    delta = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c < 0 else 0.0
+    bin_w = 2 * np.pi / (n * dt)
+    omega = (j + float(np.clip(delta, -0.5, 0.5))) * bin_w
+    h = 0.05 * bin_w
+    window = np.hanning(n)
+    p0, p1, p2 = (_power(y, omega + d, t, window) for d in (-h, 0.0, h))
+    if p0 - 2 * p1 + p2 < 0:
+        omega += float(np.clip(0.5 * h * (p0 - p2) / (p0 - 2 * p1 + p2), -h, h))
+    blocks = band_lines(P, bg, j, n, omega, dt)
+    if not blocks:
+        return None
+    amplitude = fit(y, omega, t)
+    lo, hi = max(j - WINDOW, 0), min(j + WINDOW + 1, P.size)
+    near = np.r_[lo:max(j - 3, lo), min(j + 4, hi):hi]
+    rms2 = np.mean(y**2, axis=1)
+    noise = np.median(np.abs(X[:, near])**2, axis=1) * rms2 + 1e-300
+    kappa, used = kurtosis(y, omega, dt, blocks, amplitude, noise)
+    return Line(float(omega), amplitude, kappa, float(P[j] / max(bg[j], 1e-300)), used)
+
+
+def background(P: np.ndarray) -> np.ndarray:
+    """The running median of ``P`` over the lines 3 to ``WINDOW`` either side."""
+    ring = np.ones(2 * WINDOW + 1, dtype=bool)
+    ring[WINDOW - 2:WINDOW + 3] = False
+    return median_filter(P, footprint=ring, mode="nearest")
+
+
 def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
-    """The lines of a stationary record ``y`` (m, n) sampled every ``dt`` s
-    with their kurtosis (module docstring), strongest first; none when the
-    record is under ``4 WINDOW`` samples."""
+    """The lines of a stationary record ``y`` (m, n) sampled every ``dt`` s (module docstring),
+    strongest first; none when the record is under ``4 WINDOW`` samples."""
     m, n = y.shape
     if n < 4 * WINDOW:
         return []
     X = _spectrum(y)
     P = np.sum(np.abs(X)**2, axis=0)
-    ring = np.ones(2 * WINDOW + 1, dtype=bool)
-    ring[WINDOW - 2:WINDOW + 3] = False
-    bg = median_filter(P, footprint=ring, mode="nearest")
+    bg = background(P)
     ratio = P / np.maximum(bg, 1e-300)
     peak = P >= maximum_filter1d(P, size=7, mode="nearest")
     k = np.flatnonzero(peak & (ratio >= LINE))
     k = k[(k >= 3) & (k <= P.size - 4)]
     k = k[np.argsort(-ratio[k])][:max_lines]
-    t = np.arange(n) * dt
-    window = np.hanning(n)
     lines = []
     for j in k:
-        a, b, c = np.log(P[j - 1:j + 2])
-        delta = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c < 0 else 0.0
-        bin_w = 2 * np.pi / (n * dt)
-        omega = (j + float(np.clip(delta, -0.5, 0.5))) * bin_w
-        h = 0.05 * bin_w
-        p0, p1, p2 = (_power(y, omega + d, t, window) for d in (-h, 0.0, h))
-        if p0 - 2 * p1 + p2 < 0:
-            omega += float(np.clip(0.5 * h * (p0 - p2) / (p0 - 2 * p1 + p2), -h, h))
-        amplitude = fit(y, omega, t)
-        lo, hi = max(j - WINDOW, 0), min(j + WINDOW + 1, P.size)
-        near = np.r_[lo:max(j - 3, lo), min(j + 4, hi):hi]
-        rms2 = np.mean(y**2, axis=1)
-        noise = np.median(np.abs(X[:, near])**2, axis=1) * rms2 + 1e-300
-        kappa, used = kurtosis(y, omega, dt, band_lines(P, bg, j, n, omega, dt), amplitude, noise)
-        lines.append(Line(float(omega), amplitude, kappa, float(ratio[j]), used))
+        ln = measure(y, dt, X, P, bg, int(j))
+        if ln is not None:
+            lines.append(ln)
     return lines
-
 
 
 @dataclass
 class Screened:
-    """Records (per trace, (m, n)) less the ``lines`` that are harmonics
-    for sure; the ``doubtful`` ones SSI's modes decide (:func:`confirm`)."""
+    """Records (per trace, (m, n)) less the sure harmonics ``lines``; SSI's modes decide the ``doubtful``."""
 
     records: list[np.ndarray]
     lines: list[Line]
@@ -252,9 +284,8 @@ def _merge(found: list[Line], tol: float) -> list[Line]:
 
 
 def screen(records: list[np.ndarray], dt: float) -> Screened:
-    """The lines of each stationary record (:func:`detect`) of kurtosis
-    under ``DOUBTFUL``: the ``sure`` ones (``z >= SURE``) subtracted from
-    it and in ``lines``, the others in ``doubtful`` (module docstring)."""
+    """Each record's lines of kurtosis under ``DOUBTFUL`` (:func:`detect`): those of ``z >= SURE``
+    subtracted from it and in ``lines``, the others in ``doubtful``."""
     cleaned, sure, doubtful = [], [], []
     for y in records:
         found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL]
@@ -266,54 +297,104 @@ def screen(records: list[np.ndarray], dt: float) -> Screened:
     return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
 
 
+def _pole_line(P: np.ndarray, omega: float, zeta: float, bin_w: float) -> tuple[int, float, float]:
+    """For a pole (``omega`` rad/s, ``|zeta|``) of half-width ``h = zeta
+    omega / bin_w`` lines: the strongest line ``j`` of ``P`` within ``max(h,
+    2)`` lines, its excess over a mode's peak and the band's rise over its
+    surroundings (infinite when ``h < H_MIN``: too few lines to tell);
+    module docstring."""
+    h = zeta * omega / bin_w
+    j0, r = int(round(omega / bin_w)), int(np.ceil(max(h, 2.0)))
+    wide = max(r, 8)
+    lo, hi = max(j0 - r, wide), min(j0 + r, P.size - wide - 1)
+    if hi < lo:
+        return -1, 0.0, float("inf")
+    j = lo + int(np.argmax(P[lo:hi + 1]))
+    d = np.r_[-wide:-3, 4:wide + 1]
+    shape = 1.0 / (1.0 + (d / max(h, 1e-3))**2)
+    excess = float(P[j] / max(np.median(P[j + d]), 1e-300) * np.median(shape))
+    if h < H_MIN or j0 - 4 * r < 0 or j0 + 4 * r >= P.size:
+        return j, excess, float("inf")
+    inner = np.r_[j0 - r:max(j - 3, j0 - r), min(j + 4, j0 + r + 1):j0 + r + 1]
+    outer = np.r_[j0 - 4 * r:j0 - 2 * r, j0 + 2 * r + 1:j0 + 4 * r + 1]
+    if inner.size == 0:
+        return j, excess, float("inf")
+    return j, excess, float(np.median(P[inner]) / max(np.median(P[outer]), 1e-300))
+
+
 def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray
             ) -> tuple[np.ndarray, list[Line]]:
     """Which SSI modes (``omega`` (k,) rad/s, ``zeta_abs`` the median
     ``|zeta|`` over each one's stable poles, ``zeta`` its median) are
-    harmonics, and every harmonic found:
-
-    - the sure lines (test ``kurtosis``); an SSI mode left there of
-      near-zero damping is their residue and dropped too;
-    - an SSI mode of near-zero damping at its orders (``zeta_abs < ZETA``)
-      at a doubtful line of ``z >= LIKELY``, or else whose band kurtosis measured in the
-      cleaned records (over up to ``BLOCKS[1]`` lines) has ``z >= SURE``:
-      ``kurtosis+damping``;
-    - a doubtful line of ``z >= LIKELY`` that no narrow damped SSI mode
-      explains (module docstring): ``kurtosis``."""
+    harmonics (k,), and every harmonic found: the sure lines, then the
+    module docstring's rules in its order."""
     y = max(screened.records, key=lambda r: r.shape[1])
-    length = y.shape[1] * dt
+    n = y.shape[1]
+    length = n * dt
+    total = sum(r.shape[1] for r in screened.records) * dt
     tol = 4 * np.pi / length
+    bin_w = 2 * np.pi / length
     drop = np.zeros(omega.size, dtype=bool)
     found = [Line(ln.omega, ln.amplitude, ln.kurtosis, ln.ratio, ln.blocks, ln.test) for ln in screened.lines]
     doubtful = list(screened.doubtful)
-    t = np.arange(y.shape[1]) * dt
-    for i in np.flatnonzero(zeta_abs < ZETA):
+    t = np.arange(n) * dt
+    X = P = bg = None
+    for i in range(omega.size):
         close = max(tol, 1e-3 * omega[i])
-        near = [ln for ln in found if abs(ln.omega - omega[i]) <= close]
-        if near:
+        still = zeta_abs[i] * omega[i] * total < STILL
+        if still or zeta_abs[i] < ZETA_FLOOR:
+            near = [ln for ln in found if abs(ln.omega - omega[i]) <= close]
+            if near:
+                drop[i] = True
+                near[0].test, near[0].zeta = "kurtosis+damping", float(zeta[i])
+                continue
+            line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close), None)
+            if line is None:  # no spectral line: the kurtosis alone
+                amplitude = fit(y, float(omega[i]), t)
+                kappa, used = kurtosis(y, float(omega[i]), dt, BLOCKS[1], amplitude, np.mean(y**2, axis=1))
+                line = Line(float(omega[i]), amplitude, kappa, float("nan"), used)
+            else:
+                doubtful.remove(line)
+            if line.z >= (LIKELY if np.isfinite(line.ratio) else SURE):
+                test = "kurtosis+damping"
+            elif still and zeta_abs[i] < ZETA_FLOOR:  # support would count it damped at the floor and report it
+                test = "damping"
+            else:  # no sign of a sinusoid: support judges it (under STILL decay times: rejected)
+                continue
             drop[i] = True
-            near[0].test, near[0].zeta = "kurtosis+damping", float(zeta[i])
-            continue
-        line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close), None)
-        if line is None:  # no spectral line: the kurtosis alone must be low
-            amplitude = fit(y, float(omega[i]), t)
-            kappa, used = kurtosis(y, float(omega[i]), dt, BLOCKS[1], amplitude, np.mean(y**2, axis=1))
-            line = Line(float(omega[i]), amplitude, kappa, float("nan"), used)
-        else:
-            doubtful.remove(line)
-        if line.z >= (LIKELY if np.isfinite(line.ratio) else SURE):
+            found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks, test,
+                              float(zeta[i])))
+        elif n >= 4 * WINDOW:
+            if P is None:
+                X = _spectrum(y)
+                P = np.sum(np.abs(X)**2, axis=0)
+                bg = background(P)
+            j, excess, rise = _pole_line(P, float(omega[i]), float(zeta_abs[i]), bin_w)
+            if excess < CONC or (np.isfinite(rise) and rise >= RISE):
+                continue
             drop[i] = True
-            found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks,
-                              "kurtosis+damping", float(zeta[i])))
+            line = next((ln for ln in found + doubtful if abs(ln.omega - j * bin_w) <= tol), None)
+            if line is not None and line in doubtful:
+                doubtful.remove(line)
+            elif line is None:
+                line = measure(y, dt, X, P, bg, j) or Line(j * bin_w, fit(y, j * bin_w, t), float("nan"),
+                                                           float(P[j] / max(bg[j], 1e-300)), 0)
+            if all(line is not f for f in found):
+                found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks, "line",
+                                  float(zeta[i])))
     narrow = ~drop & (np.abs(zeta) * omega * length / np.pi < WINDOW)
     reach = SKIRT * np.abs(zeta[narrow]) * omega[narrow] + 1.5 * tol
+    decays = (zeta_abs * omega * total)[narrow]
+    for ln in [f for f in found if f.test == "kurtosis"]:  # a sure line at a narrow damped mode: its random
+        at = np.abs(ln.omega - omega[narrow]) < reach  # envelope has about zeta omega T independent values
+        if at.any() and (3 - ln.kurtosis) * np.sqrt(min(ln.blocks, decays[at].min())) / 3 < SURE:
+            found.remove(ln)
     found += [ln for ln in doubtful if ln.z >= LIKELY and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
     return drop, sorted(found, key=lambda x: x.omega)
 
 
 def on_modes(found: list[Line], omega: np.ndarray, zeta: np.ndarray) -> None:
-    """Mark each harmonic inside a reported mode's half-power band
-    ``|omega_h - omega_r| < zeta_r omega_r`` with that mode's ``omega`` (rad/s)."""
+    """Mark each harmonic in a reported mode's band ``|omega_h - omega_r| < zeta_r omega_r`` with its ``omega``."""
     for ln in found:
         inside = np.abs(ln.omega - omega) < np.abs(zeta) * omega
         ln.on_mode = float(omega[inside][np.argmin(np.abs(ln.omega - omega[inside]))]) if inside.any() else None
