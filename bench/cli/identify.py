@@ -25,9 +25,9 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
     "least-squares": (
         "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
         {"estimator": "bias-compensated", "samples": None, "interval": 0.5, "integration": "auto",
-         "weighting": "noise"},
+         "weighting": "noise", "domain": "auto"},
         {"estimator": ("bias-compensated", "ols"), "integration": ("auto", "zoh-simpson", "simpson", "trapezoid"),
-         "weighting": ("noise", "none")}),
+         "weighting": ("noise", "none"), "domain": ("auto", "time", "frequency")}),
     "perturbation": (
         "chapter 4: iterative frequency-domain perturbation from a postulated model",
         {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False}, {}),

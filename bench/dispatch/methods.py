@@ -64,10 +64,10 @@ class Method:
 BUILTIN: dict[str, Method] = {m.name: m for m in (
     Method("least-squares", least_squares.identify,
            {"estimator": "bias-compensated", "samples": None, "interval": 0.5, "integration": "auto",
-            "weighting": "noise"},
+            "weighting": "noise", "domain": "auto"},
            "chapter 3: element mass, damping and stiffness by least squares on the equations of motion",
            {"estimator": least_squares.ESTIMATORS, "integration": least_squares.INTEGRATIONS,
-            "weighting": least_squares.WEIGHTINGS},
+            "weighting": least_squares.WEIGHTINGS, "domain": least_squares.DOMAINS},
            channels="the force at every forced DOF and one of displacement, velocity or acceleration at every "
                     "DOF of the model (any mix); any excitation"),
     Method("perturbation", perturbation.identify,

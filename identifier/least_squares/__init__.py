@@ -52,6 +52,35 @@ on every DOF of the model (else an error naming the DOF and the channels
 present). The acceleration path (every DOF with an acceleration channel)
 assumes zero-mean noise: no offsets there.
 
+Domain (option ``domain``, issue 22). ``time``: the estimators above.
+``frequency``: the equations of motion on FRFs, ``(K - omega^2 M + i omega
+C) H = e_f`` at the measured lines, from any one response quantity per DOF
+(velocity and acceleration FRFs divided by ``(i omega)^k``: exact, no
+differentiation), H1 by :mod:`identifier.frf` per group of traces with one
+force location (Welch for random tests, a record per average for impulses,
+a per-line fit per stepped-sine test), the force noise's bias of H1 removed
+when declared, the zero-order hold of the sampled data corrected at the
+latest estimate; the bias-compensated linear estimate, then the output-error
+fit that the whitened equation error converges to
+(:mod:`identifier.least_squares.frequency`, :mod:`.frequency_output`,
+:mod:`.frequency_data`; ``details["frequency_domain"]``). ``samples``,
+``interval`` and ``integration`` do not apply there; ``estimator="ols"``
+gives the plain (biased) linear estimate. ``auto`` (default): time when
+every DOF has an acceleration channel, or when the prefiltered path accepts
+the records (corner ``lam = 2 x band``, ``lam dt <= 0.5``: the band far below
+Nyquist, as :mod:`identifier.least_squares.quantities` decides); else
+frequency. That band is a median frequency: a free-free structure's
+rigid-body drift pulls it to nearly zero while its flexible response
+reaches Nyquist (the chapter 3 beam's random test at dt = 0.02 s from
+velocities: ``auto`` takes the time domain, whose prefiltered path then
+fails, normalized RMS error 74; ``domain=frequency`` gives 0.008 per 655 s
+record). ``details["domain"]`` says which and why. The
+frequency domain needs excitation over a band (random, impulse, several
+stepped-sine lines: a single harmonic line leaves the parameters
+unidentifiable) and a linear, stationary response: FRFs of lightly damped
+or undamped structures leak, which biases damping up and, for the undamped
+chapter 3 beam, every parameter (benchmarks/least_squares_frequency.py).
+
 Rank deficiency (e.g. only rigid-body motion excited, eq. 3.15 discussion)
 raises :class:`IdentificationError` naming the parameters that are not
 identifiable.
@@ -78,14 +107,16 @@ from .regression import layout
 from .ols import WEIGHTINGS, solve
 from ..io.results import Identification, ParameterEstimate
 from ..io.traces import Channel, Trace
-from .quantities import prefiltered_run, response_channels
+from . import frequency_data
+from .quantities import MAX_LAM_DT, corner, prefiltered_run, response_channels
 
 RCOND = 1e-7
 INTEGRATIONS = ("auto",) + METHODS
 ESTIMATORS = ("bias-compensated", "ols")
+DOMAINS = ("auto", "time", "frequency")
 DEFECT_PASSES = 4  # defect corrections at most (each from the latest estimate; stops when it moves < 0.01 s.e.)
-__all__ = ["ESTIMATORS", "INTEGRATIONS", "WEIGHTINGS", "Estimate", "Motion", "identify", "solve",
-           "solve_compensated", "trace_motion"]
+__all__ = ["DOMAINS", "ESTIMATORS", "INTEGRATIONS", "WEIGHTINGS", "Estimate", "Motion", "identify", "solve",
+           "choose_domain", "solve_compensated", "trace_motion"]
 
 
 @dataclass
@@ -204,13 +235,31 @@ def trace_motion(trace: Trace, model: Structure, samples: int | None, interval: 
                   acc[0][idx], force[idx], sigma), how
 
 
+def choose_domain(traces: Sequence[Trace], model: Structure, domain: str = "auto") -> tuple[str, str]:
+    """``(domain, why)``: ``domain`` itself unless ``"auto"`` (module docstring, "Domain")."""
+    if domain not in DOMAINS:
+        raise IdentificationError(f"unknown domain {domain!r}; known: {', '.join(DOMAINS)}", field="domain")
+    if domain != "auto":
+        return domain, "asked for"
+    if all(_every_dof_has(t, "acceleration", model) for t in traces):
+        return "time", "every DOF has an acceleration channel"
+    response_channels(traces[0], model)  # raises naming the DOF without any response channel
+    lam = corner(traces, model)
+    worst = max(lam * t.dt for t in traces)
+    if worst <= MAX_LAM_DT:
+        return "time", f"band far below Nyquist (prefilter corner x dt = {worst:.3g} <= {MAX_LAM_DT})"
+    return "frequency", (f"band near Nyquist (prefilter corner x dt = {worst:.3g} > {MAX_LAM_DT}): "
+                         "equations of motion on FRFs")
+
+
 def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-compensated",
              samples: int | None = None, interval: float = 0.5, integration: str = "auto",
-             weighting: str = "noise", rcond: float = RCOND) -> Identification:
+             weighting: str = "noise", rcond: float = RCOND, domain: str = "auto") -> Identification:
     """Least-squares identification from the traces of one repetition.
 
     Every trace contributes its equations at every sample (``samples`` None)
-    or at ``t_0 + interval k``, k = 1..samples; ``estimator`` as in the module docstring.
+    or at ``t_0 + interval k``, k = 1..samples; ``estimator`` as in the module
+    docstring; ``domain`` ``time``, ``frequency`` or ``auto`` (module docstring, "Domain").
     """
     if not isinstance(model, Structure):
         raise IdentificationError(f"least squares needs a finite-element model; {model.name} is modal",
@@ -222,7 +271,15 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         raise IdentificationError(f"unknown weighting {weighting!r}; known: {', '.join(WEIGHTINGS)}",
                                   field="weighting")
     estimated: list[str] = []
-    if not all(_every_dof_has(t, "acceleration", model) for t in traces) and (
+    chosen_domain, why = choose_domain(traces, model, domain)
+    if chosen_domain == "frequency" and (samples is not None or integration != "auto"):
+        raise IdentificationError("samples, interval and integration apply to the time domain; the frequency "
+                                  "domain uses every FRF line (domain=time for them)", field="domain")
+    if chosen_domain == "frequency":
+        est = frequency_data.solve_traces(traces, model, lambda t, c: _sigma(t, c, estimated), weighting, rcond,
+                                          compensate=estimator == "bias-compensated")
+        motion, how, extra = None, ["frequency-domain"], {}
+    elif not all(_every_dof_has(t, "acceleration", model) for t in traces) and (
             estimator == "bias-compensated" and samples is None and integration == "auto"):
         sigma_of = (lambda t, c: _sigma(t, c, estimated))
         records, prefilter = prefiltered_run(traces, model, None, sigma_of)
@@ -267,7 +324,7 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         omega = model.with_values(p).modes(min(10, model.n_dof)).omega.tolist()
     except ModelError:  # a non-physical (negative) estimate under heavy noise
         omega = []
-    times = ({"sample_times": motion.times.tolist()} if samples is not None
+    times = ({} if motion is None else {"sample_times": motion.times.tolist()} if samples is not None
              else {"samples": int(motion.times.size), "sample_span": [float(motion.times.min()),
                                                                      float(motion.times.max())]})
     return Identification(
@@ -278,7 +335,7 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
         omega=omega,
         details=times | est.details | {
             "n_equations": est.n_equations, "condition": est.condition, "residual_rms": est.residual_rms,
-            "motion": how, **extra,
+            "motion": how, "domain": {"chosen": chosen_domain, "why": why}, **extra,
             "noise": ("estimated from the data (second differences) for " + ", ".join(estimated[:8])
                       + (f" and {len(estimated) - 8} more" if len(estimated) > 8 else "")
                       if estimated else "declared by the traces")})

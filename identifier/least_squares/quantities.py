@@ -119,12 +119,19 @@ def prefiltered(trace: Trace, model: Structure, lam: float, sigma_of: Callable[[
     return Record(motion, tuple(sources), offsets.signatures(flat, sources, design)), design
 
 
+def corner(traces: Sequence[Trace], model: Structure) -> float:
+    """The prefilter's corner (rad/s) for a run: :data:`BAND_FACTOR` times the
+    median band of its records; the prefiltered equations need ``corner dt <=``
+    :data:`MAX_LAM_DT` (the domain choice of :func:`identifier.least_squares.identify` asks the same)."""
+    return BAND_FACTOR * float(np.median([record_band(t, model) for t in traces]))
+
+
 def prefiltered_run(traces: Sequence[Trace], model: Structure, lam: float | None,
                     sigma_of: Callable[[Trace, Channel], np.ndarray]) -> tuple[list[Record], dict]:
     """Every trace of a run through one prefilter; ``lam`` None: from the band.
     Returns the records and what was done (for ``details``)."""
     if lam is None:
-        lam = BAND_FACTOR * float(np.median([record_band(t, model) for t in traces]))
+        lam = corner(traces, model)
     worst = max(lam * t.dt for t in traces)
     if worst > MAX_LAM_DT:
         raise IdentificationError(
