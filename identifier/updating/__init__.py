@@ -13,7 +13,8 @@ the force is known, so the common scale of mass and stiffness is
 determined. Where the FRFs alone leave parameters undetermined (one
 response per force on an undamped structure: one real number per line),
 the natural frequencies of the free vibration in harmonic records are
-added as eigenvalue residuals (:func:`_natural`). The solution, weight
+added as eigenvalue residuals (:func:`_natural`); they guide the FRF
+search stages in any case (:mod:`.frf_residuals`). The solution, weight
 choice, identifiability report and standard errors below are shared
 (:func:`_solve`); what follows describes the modal residuals.
 
