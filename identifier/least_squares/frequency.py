@@ -27,8 +27,12 @@ shrink) however many lines. Bias compensation solves
 (``u`` unknown, ``k`` known parameters, ``f`` the force column), as
 :mod:`identifier.least_squares.bias_compensated` does in the time domain.
 
-Weighting. First unweighted (``Omega = I``), then :data:`REWEIGHTINGS` times
-whitened at the latest estimate: ``cov(e_b) = Z diag(V_b) Z^H`` with ``Z =
+Weighting. Unweighted, the equation error is swamped by ``K dh`` (on the
+chapter 3 beam the unweighted estimates were off by 100 % and more), so the
+start is :func:`scaled_start`: the model's unknown values (a prior, or a
+topology's 1.0) scaled by one factor per parameter kind, the factors fitted
+with one weight per line (its signal-to-noise ratio), then whitened. From
+there :data:`REWEIGHTINGS` times whitened at the latest estimate: ``cov(e_b) = Z diag(V_b) Z^H`` with ``Z =
 K - omega^2 M + i omega C``, so ``Omega_b = Z^-H diag(1/V_b) Z^-1 =
 Hh^H diag(1/V_b) Hh`` with ``Hh = Z^-1`` the model's receptance: the
 whitened equation error is the output error ``(h - Hh e_f) / sqrt(V)`` at
@@ -41,6 +45,12 @@ correlate by -2/3), so ``g_b`` are summed over clusters of :data:`CLUSTER`
 consecutive lines before the sandwich ``H^-1 (sum_c g_c g_c^T) H^-1``,
 ``H = Re(G - D)_uu`` (first order: the weights and ``V`` taken as known;
 times ``n_c / (n_c - n_u)`` for ``n_c`` clusters and ``n_u`` unknowns).
+
+Iterating the re-weighting to convergence can drift when many lines have
+a signal-to-noise ratio near one (``G - D`` the small difference of two
+large matrices): :mod:`identifier.least_squares.frequency_output` finishes
+with the output-error fit that the iteration converges to, and
+:mod:`identifier.least_squares.frequency_data` gets the lines from traces.
 
 Assumptions: a linear structure whose model (topology) is right; ``h`` free
 of bias (leakage: undamped or lightly damped modes against short segments
