@@ -1,5 +1,33 @@
 """Model updating on the chapter 4 cantilevers with the dissertation's noise (issue 23.4).
 
+Two routes per case; ``--routes frf,modal`` (default both).
+
+FRF route (``structbench identify DIR --method updating --option data=frf``,
+the registry resolving the built-in ``-postulated`` prior as on the command
+line; the truth only scores): FRF lines from the 12 stepped-sine tests of
+each repetition (forced plus free-vibration fit, excitation frequency
+tracked: ``identifier/updating/frf_data.py``), whitened real/imaginary
+residuals with the declared 0.5 % actuator amplitude error as a per-line
+gain (``frf_residuals.py``). Printed: normalized RMS parameter error per
+repetition, median and 10-90 % spread, the share of 95 % intervals
+(1.96 ``std_error``) that hold the truth, and how many runs added the
+records' natural frequencies (only when the FRFs alone are rank-deficient).
+
+Measured (20 repetitions each, 2 processes on a loaded 2-core machine):
+case 1, median 0.00119, 10-90 % 0.00026 .. 0.00231, max 0.00263 (target
+0.005 met; postulated 0.122), intervals cover 99.6 % of 240 estimates,
+FRFs alone full rank (no natural frequencies added), 772 s wall;
+case 2 (one tip sensor), median 5.8e-6, 10-90 % 3.5e-6 .. 9.6e-6, max
+1.1e-5 (target 0.01 met; postulated 0.029), intervals cover 99.6 %, every
+run added the records' natural frequencies (the tip FRFs of an undamped
+structure give one real number per line: rank-deficient alone), 306 s
+wall. The intervals are conservative (the discrepancy-principle
+regulariser and the inflated natural-frequency errors widen them).
+An earlier version without the natural-frequency guide of the search and
+without leaving out lines unresolvable from a natural frequency ended 7 of
+the 20 case 1 repetitions in a wrong basin (0.47 to 1.93).
+
+Modal route (the modal identifier, then updating from its modes):
 Per case (``campaigns/ch4-case1.toml``: all 12 DOF measured, 1 % sensor and
 0.5 % actuator noise; ``ch4-case2.toml``: one tip sensor, 0.01 % and
 0.0005 %): the campaign is run, each of the 20 repetitions of its ``noisy``
@@ -28,13 +56,14 @@ rank 11 of 12, the common scale of mass and stiffness stays at the prior.
 Modal data without a measured force cannot meet these targets with mass
 and stiffness both unknown.
 
-    python benchmarks/updating_ch4.py [--work DIR] [--cases 1,2]
+    python benchmarks/updating_ch4.py [--work DIR] [--cases 1,2] [--routes frf,modal] [--jobs 2]
 """
 from __future__ import annotations
 
 import argparse
 import json
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -53,13 +82,40 @@ def nrms(values: np.ndarray, truth: np.ndarray) -> float:
     return float(np.sqrt(np.mean((values / truth - 1.0) ** 2)))
 
 
-def case(number: int, work: Path) -> None:
+def frf_route(number: int, out: Path, truth: np.ndarray, labels: list[str], start: float, jobs: int) -> None:
+    """``identify DIR --method updating --option data=frf`` on the noisy group
+    (the prior: the built-in ``-postulated`` model, resolved by the registry
+    as on the command line); the truth only scores the results."""
+    began = time.perf_counter()
+    doc = sb.identify(out, "updating", groups=["noisy"], jobs=jobs, data="frf", tag="frf")
+    wall = time.perf_counter() - began
+    runs = sorted(doc["runs"], key=lambda r: r["repetition"])
+    e, inside, natural = [], [], 0
+    for run in runs:
+        est = {p["label"]: p for p in run["parameters"]}
+        values = np.array([est[lab]["value"] for lab in labels])
+        std = np.array([est[lab]["std_error"] if est[lab]["std_error"] is not None else np.nan for lab in labels])
+        e.append(nrms(values, truth))
+        inside.append(np.abs(values - truth) <= 1.96 * std)
+        natural += "natural_frequencies" in run["details"]
+    e = np.array(e)
+    inside = np.array(inside)
+    med = float(np.median(e))
+    print(f"  FRF residuals (data=frf, {len(runs)} repetitions, {wall:.0f} s wall on {jobs} process(es)): "
+          f"normalized RMS median {med:.2e}, 10-90 % {np.percentile(e, 10):.2e} .. {np.percentile(e, 90):.2e}, "
+          f"max {e.max():.2e}; postulated {start:.4f}; target <= {TARGET[number]}: "
+          f"{'met' if med <= TARGET[number] else 'NOT met'}")
+    print(f"    per repetition: {' '.join(f'{v:.2e}' for v in e)}")
+    print(f"    95 % intervals (1.96 std_error) cover the truth for {inside.mean():.1%} of the "
+          f"{inside.size} parameter estimates; runs that added the records' natural frequencies: {natural}")
+
+
+def case(number: int, work: Path, routes: set[str], jobs: int) -> None:
     out = work / f"ch4-case{number}"
     if not (out / "truth.json").is_file():
         shutil.rmtree(out, ignore_errors=True)
     status = sb.run_campaign(ROOT / "campaigns" / f"ch4-case{number}.toml", out, jobs=1)  # resumes: a done run is kept
     assert status.failed == 0, status
-    modal = sb.identify(out, "modal", groups=["noisy"], jobs=1)
     truth_doc = json.loads((out / "truth.json").read_text())
     true = {p["label"]: p["value"] for p in truth_doc["parameters"]}
     prior = load_model(f"ch4-cantilever-case{number}-postulated")
@@ -67,6 +123,12 @@ def case(number: int, work: Path) -> None:
     labels = [p.label for p, m in zip(prior.parameters, mask) if m]
     truth = np.array([true[lab] for lab in labels])
     start = nrms(prior.values[mask], truth)
+    print(f"case {number}:")
+    if "frf" in routes:
+        frf_route(number, out, truth, labels, start, jobs)
+    if "modal" not in routes:
+        return
+    modal = sb.identify(out, "modal", groups=["noisy"], jobs=1)
     errors, found = [], []
     for run in modal["runs"]:
         found.append(len(run["omega"]))
@@ -103,10 +165,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path, default=Path("/tmp/structbench-ch4-updating"))
     parser.add_argument("--cases", default="1,2")
+    parser.add_argument("--routes", default="frf,modal", help="frf (FRF residuals), modal (identified modes) or both")
+    parser.add_argument("--jobs", type=int, default=2, help="processes of the FRF route (one repetition each)")
     args = parser.parse_args()
     args.work.mkdir(parents=True, exist_ok=True)
     for number in (int(c) for c in args.cases.split(",")):
-        case(number, args.work)
+        case(number, args.work, set(args.routes.split(",")), args.jobs)
 
 
 if __name__ == "__main__":
