@@ -484,7 +484,7 @@ def update_frf(model: Structure, frf: FrfData, kinds: str | Sequence[str] | None
         status="converged" if final.status > 0 else "max-iterations",
         message="" if final.status > 0 else final.message, parameters=params,
         iterations=final.nfev, history=[p0.tolist(), [p.value for p in params]],
-        misfit_history=[float(np.sqrt(np.nan_to_num(out.prior.r, posinf=1e300) @ np.nan_to_num(out.prior.r, posinf=1e300))),
+        misfit_history=[float(np.linalg.norm(np.nan_to_num(out.prior.r, posinf=1e150, neginf=-1e150))),
                         float(np.sqrt(ev.r @ ev.r))],
         omega=np.sqrt(np.clip(lam, 0.0, None)).tolist(), eigenvalues=lam.tolist(), details=details)
 

@@ -320,8 +320,8 @@ def harmonic_lines(traces: Sequence[Trace], prior: Structure, track: bool | None
                     "commanded_omega": [t.omega for t, *_ in windows], "omega": tracked,
                     "unresolved": unresolved,
                     "natural_frequencies": [float(v) if ok else None for v, ok in zip(free, found)]},
-                   np.where(found, free, np.nan), np.where(found & (fisher > 0), 1 / np.sqrt(np.maximum(fisher, 1e-300)),
-                                                           np.nan))
+                   np.where(found, free, np.nan),
+                   np.where(found & (fisher > 0), 1 / np.sqrt(np.maximum(fisher, 1e-300)), np.nan))
 
 
 def has_force(traces: Sequence[Trace]) -> bool:
