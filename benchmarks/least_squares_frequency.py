@@ -33,19 +33,24 @@ RMS parameter error with its 10-90 % spread; coverage of the 95 % intervals).
     python benchmarks/least_squares_frequency.py [--structures ...] [--repetitions 100] [--samples 32768]
         [--cases time displacement velocity acceleration] [--per-repetition] [--jobs 2]
 
-Measured (commit ad091f2 plus docstrings; a 2-core machine shared with
-other jobs at load 12-20, so wall times are inflated and CPU time,
-single-threaded BLAS, is the speed figure), 100 repetitions pooled into one
-identification, the frequency domain:
+Measured (Welch segments of 8192 samples, frequency_data.MAX_SEGMENT; a
+2-core machine shared with other jobs at load 12-20, so wall times are
+inflated and CPU time, single-threaded BLAS, is the speed figure), 100
+repetitions pooled into one identification, the frequency domain:
 
-    ch3-damped-beam  velocity only      normalized RMS 0.00206, CPU 5.6 s (wall 16.8 s), 586 lines, 8 ZOH passes
-                     acceleration only  0.00111, CPU 7.5 s (wall 39.9 s), 1294 lines
-                     displacement only  0.0535, CPU 2.3 s: 56 lines with coherence >= 0.5 (the
-                                        rigid-body drift dominates each displacement's RMS, so its
-                                        2 % noise buries the flexible response)
-    ch3-free-free-beam velocity only    0.0095; acceleration only 0.0079; displacement only 0.025
-                     (undamped: the response is never stationary, the FRF lines leak, the bias
-                     dominates: coverage of the 95 % intervals 0; the target 0.003 is not met)
+    ch3-damped-beam    velocity only      normalized RMS 0.00090, CPU 7.0 s (wall 14.2 s), 1169 lines, coverage 0.98
+                       acceleration only  0.00048, CPU 11.3 s (wall 23.3 s), 2584 lines, coverage 0.76
+                       displacement only  0.0206, CPU 3.1 s: 111 lines with coherence >= 0.5 (the
+                                          rigid-body drift dominates each displacement's RMS, so its
+                                          2 % noise buries the flexible response)
+    ch3-free-free-beam velocity only      0.0053, CPU 5.4 s; acceleration only 0.0081, CPU 4.9 s;
+                       displacement only  0.0098, CPU 3.7 s (undamped: the response is never
+                                          stationary and the FRF lines leak; bias dominates)
+
+Leakage sets the floor: with 4096-sample segments the same runs gave
+0.00206 / 0.00111 / 0.054 (damped; CPU 5.6 / 7.5 / 2.3 s) and 0.0095 /
+0.0079 / 0.025 (undamped); 20 repetitions with 16384-sample segments,
+velocities: 0.00055 (damped, CPU 10.9 s), 0.0030 (undamped, CPU 6.4 s).
 
 Per repetition (one 655 s record each, 10 repetitions, ch3-damped-beam):
 frequency domain from velocities median 0.0080 (p10 0.0069, p90 0.0088),

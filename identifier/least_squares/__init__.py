@@ -71,10 +71,10 @@ the records (corner ``lam = 2 x band``, ``lam dt <= 0.5``: the band far below
 Nyquist, as :mod:`identifier.least_squares.quantities` decides); else
 frequency. That band is a median frequency: a free-free structure's
 rigid-body drift pulls it to nearly zero while its flexible response
-reaches Nyquist (the chapter 3 beam's random test at dt = 0.02 s from
-velocities: ``auto`` takes the time domain, whose prefiltered path then
-fails, normalized RMS error 74; ``domain=frequency`` gives 0.008 per 655 s
-record). ``details["domain"]`` says which and why. The
+reaches Nyquist (``ch3-damped-beam``'s random test at dt = 0.02 s from
+velocities, benchmarks/least_squares_frequency.py: ``auto`` takes the time
+domain, whose prefiltered path then fails, normalized RMS error 74 from
+three 655 s records; ``domain=frequency`` gives 0.008 from each one). ``details["domain"]`` says which and why. The
 frequency domain needs excitation over a band (random, impulse, several
 stepped-sine lines: a single harmonic line leaves the parameters
 unidentifiable) and a linear, stationary response: FRFs of lightly damped

@@ -59,7 +59,7 @@ from .quantities import _dof, response_channels
 LEVELS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 MIN_COHERENCE = 0.5
 ZOH_PASSES = 8
-MAX_SEGMENT = 4096  # Welch segment cap (samples): lines and time grow with it, leakage falls
+MAX_SEGMENT = 8192  # Welch segment cap (samples): lines and time grow with it, leakage bias falls
 FIRST_OMEGA_DT = 0.3  # the first estimate (before any defect is known) from lines with omega dt up to this
 
 
