@@ -60,3 +60,27 @@ def build_msd(folder: Path, velocity: bool = False,
         z.writestr("modelDescription.xml", xml)
         z.write(library, "binaries/linux64/Msd.so")
     return fmu
+
+
+CAMPAIGN_HEAD = """\
+name = "msd"
+structure = "{fmu}"
+seed = {seed}
+interface = "model-exchange"
+[mapping]
+force = "f"
+displacement = "y"
+
+[locations]
+1 = [0.0, 0.0, 0.0]
+
+"""
+
+
+def msd_campaign(folder: Path, fmu: Path, seed: int, tests: str) -> Path:
+    """``folder/msd.toml``: the FMU ``fmu`` through model exchange, force
+    ``f`` and position ``y`` at location 1, with the ``[[tests]]`` text ``tests``."""
+    path = folder / "msd.toml"
+    path.write_text(CAMPAIGN_HEAD.format(fmu=fmu, seed=seed) + tests)
+    return path
+

@@ -4,12 +4,18 @@ frequency_output.py, frequency_data.py): the equations of motion on FRFs,
 chain and against the time-domain estimator on FMU-generated traces."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+import foreign_fixtures as msd
+from structbench.harness.run import run_campaign
+from structbench.identifier.io.traces import read_trace
 from structbench.identifier.least_squares import identify
 from structbench.identifier.least_squares.frequency import Lines, solve_lines
 from structbench.identifier.least_squares.frequency_output import refine
+from structbench.models import load_model
 from structbench.models.toml_model import structure_from_dict
 
 OMEGA = np.linspace(20.0, 250.0, 60)  # rad/s: both modes (63, 159 rad/s) inside
@@ -111,41 +117,22 @@ def test_fmu_traces_frequency_against_time_domain(tmp_path):
     force, 2 % noise: the frequency domain (Welch H1 pooled over the records) and the time domain (prefiltered, offsets estimated) agree
     with each other (4 combined standard errors) and with the FMU's m and k
     within 1 %, c within 10 % (leakage), each within 4 standard errors."""
-    from foreign_fixtures import D, K, M, build_msd
-    from structbench.harness.run import run_campaign
-    from structbench.identifier.io.traces import read_trace
-    from structbench.models import load_model
-    from pathlib import Path
-
-    fmu = build_msd(tmp_path)
-    campaign = tmp_path / "msd.toml"
-    campaign.write_text(f"""\
-name = "msd"
-structure = "{fmu}"
-seed = 11
-interface = "model-exchange"
-[mapping]
-force = "f"
-displacement = "y"
-
-[locations]
-1 = [0.0, 0.0, 0.0]
-
+    campaign = msd.msd_campaign(tmp_path, msd.build_msd(tmp_path), 11, """\
 [[tests]]
 name = "random"
 dt = 0.001
 duration = 10.0
 repetitions = 2
-noise = {{sensor = {{displacement = 0.02, force = 0.02}}}}
-excitation = [{{kind = "random", node = 1, dir = "x", rms = 10.0, band = [5.0, 1000.0], realisation = "per-repetition"}}]
-sensors = [{{nodes = [1], dirs = ["x"], quantities = ["displacement", "force"]}}]
+noise = {sensor = {displacement = 0.02, force = 0.02}}
+excitation = [{kind = "random", node = 1, dir = "x", rms = 10.0, band = [5.0, 1000.0], realisation = "per-repetition"}]
+sensors = [{nodes = [1], dirs = ["x"], quantities = ["displacement", "force"]}]
 """)
     out = tmp_path / "out"
     status = run_campaign(campaign, out, jobs=0, check_step="off")
     assert not status.failed
     traces = [read_trace(p) for p in sorted((out / "traces").glob("*.h5"))]
-    model = load_model(Path(__file__).resolve().parents[1] / "tests" / "foreign_fmu" / "msd.toml")
-    truth = {"mass[1]": M, "damping[3]": D, "stiffness[2]": K}
+    model = load_model(Path(__file__).resolve().parent / "foreign_fmu" / "msd.toml")
+    truth = {"mass[1]": msd.M, "damping[3]": msd.D, "stiffness[2]": msd.K}
     freq = identify(traces, model, domain="frequency")
     time = identify(traces, model, domain="time")
     assert freq.details["domain"]["chosen"] == "frequency" and time.details["domain"]["chosen"] == "time"

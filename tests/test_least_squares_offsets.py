@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from foreign_fixtures import D, K, M, Y0, build_msd
+from foreign_fixtures import D, K, M, Y0, build_msd, msd_campaign
 from identify_synth import memory_trace, oscillator, respond
 from structbench.harness.run import run_campaign
 from structbench.identifier.io.traces import read_trace
@@ -84,28 +84,15 @@ def test_foreign_fmu_position_offset(tmp_path):
     """The FMU of tests/foreign_fmu (position y = x + 1 mm), model exchange, a
     1 N s impulse, 2 % noise, 3 repetitions: m, c, k within 1 % and 4
     standard errors (without the offsets estimated: m -92 %), the offset to 1 %."""
-    fmu = build_msd(tmp_path)
-    campaign = tmp_path / "msd.toml"
-    campaign.write_text(f"""\
-name = "msd"
-structure = "{fmu}"
-seed = 7
-interface = "model-exchange"
-[mapping]
-force = "f"
-displacement = "y"
-
-[locations]
-1 = [0.0, 0.0, 0.0]
-
+    campaign = msd_campaign(tmp_path, build_msd(tmp_path), 7, """\
 [[tests]]
 name = "impulse"
 dt = 0.001
 duration = 4.0
 repetitions = 3
-noise = {{sensor = {{displacement = 0.02, force = 0.02}}}}
-excitation = [{{kind = "impulse", node = 1, dir = "x", impulse = 1.0}}]
-sensors = [{{nodes = [1], dirs = ["x"], quantities = ["displacement", "force"]}}]
+noise = {sensor = {displacement = 0.02, force = 0.02}}
+excitation = [{kind = "impulse", node = 1, dir = "x", impulse = 1.0}]
+sensors = [{nodes = [1], dirs = ["x"], quantities = ["displacement", "force"]}]
 """)
     out = tmp_path / "out"
     status = run_campaign(campaign, out, jobs=0, check_step="off")
