@@ -40,17 +40,43 @@ harmonics, and the frequency and damping errors of the true modes found with
 and without the harmonics (:func:`structbench.evaluation.modal_scores.modal_scores`).
 
 Seeds 0-23 (beam) and 0-15 (frame) were used while the thresholds of
-``identifier/modal/harmonics.py`` were chosen; the figures of
-docs/modal-method.md are seeds 1000-1099, run once (about 15 and 13
-minutes on a loaded 2-core machine):
+``identifier/modal/harmonics.py`` were first chosen, and seeds 1000-1099
+were the first held-out set (figures below). Its four harmonics reported
+as modes (beam 1052, 1075, 1099, frame 1065) were then diagnosed on those
+seeds: two weak harmonics on a mode's band got an SSI pole of damping 0
+(1e-6 to 3e-5, under one decay time in the record) whose kurtosis did not
+reach the 0.3 % near-zero test's bar; two got a damped pole (0.12 %,
+0.23 %) fitted to the line beside or on a broad mode. The near-zero damping
+became relative to the record (decay times ``|zeta| omega T``) and the
+``line`` test (a pole's peak against a mode's of its half-width) was added.
+Its thresholds come from the periodogram's exponential scatter (a mode's
+line 15 times over its expected peak: about 1e-4 per line of its band) and
+the support tests' least decay times, not from fits to those seeds (whose
+pole features were looked at, so their figures for the new code are not
+held out); they were checked on seeds 0-23 / 0-15, on new tuning seeds
+3000-3024 (beam) and 3000-3031 (frame; the 3000-3049 planned did not fit
+the session) and on
+benchmarks/modal_fuzz.py's tuning seeds (100,000-100,199, the
+supported-modes side). The figures of
+docs/modal-method.md are fresh seeds 2000-2099, run once on the final code:
 
-    python benchmarks/modal_harmonics.py --structure beam --first 1000 --seeds 100 --uncertainty off
-    python benchmarks/modal_harmonics.py --structure frame --first 1000 --seeds 100 --uncertainty off
+    python benchmarks/modal_harmonics.py --structure beam --first 2000 --seeds 100 --uncertainty off
+    python benchmarks/modal_harmonics.py --structure frame --first 2000 --seeds 100 --uncertainty off
 
-Held out (seeds 1000-1099): beam 293 of 300 harmonics listed (97.7 %), 3
-reported as modes, modes found 80.4 % without and 77.7 % with harmonics,
-median abs frequency error 0.103 % and 0.104 %; frame 248 of 249 (99.6 %),
-1 reported as a mode, modes found 100 % either way, 0.060 % and 0.059 %.
+First held-out set (seeds 1000-1099, the code before the fix): beam 293 of
+300 harmonics listed (97.7 %), 3 reported as modes, modes found 80.4 %
+without and 77.7 % with harmonics, median abs frequency error 0.103 % and
+0.104 %; frame 248 of 249 (99.6 %), 1 reported as a mode, modes found
+100 % either way, 0.060 % and 0.059 %.
+
+Fresh held-out set (seeds 2000-2099, final code, run once; 45 minutes each
+on a machine loaded by other jobs): beam 290 of 300 harmonics listed
+(96.7 %), 4 reported as modes, 4 true modes listed as harmonics, modes
+found 81.1 % without and 77.3 % with harmonics, median abs frequency error
+0.114 % and 0.112 %; frame 249 of 251 (99.2 %), 2 reported as modes, none
+listed as harmonics, modes found 100 % either way, 0.057 % and 0.057 %.
+The zero target for harmonics reported as modes is missed (6 in 200):
+docs/modal-method.md says why.
 """
 from __future__ import annotations
 
