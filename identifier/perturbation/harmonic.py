@@ -25,6 +25,21 @@ def design(t: np.ndarray, omegas: Sequence[float]) -> np.ndarray:
     return np.column_stack(cols) if cols else np.empty((t.size, 0))
 
 
+def residual_projector(X: np.ndarray):
+    """``B -> B - X c(B)``: the part of ``B`` (n, ...) that the columns of ``X``
+    (n, p) do not fit, by least squares (column-scaled normal equations,
+    factored once; SVD if they are singular)."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    try:
+        factor = la.cho_factor(Xs.T @ Xs)
+        fit = lambda B: la.cho_solve(factor, Xs.T @ B)  # noqa: E731
+    except la.LinAlgError:
+        fit = lambda B: la.lstsq(Xs, B)[0]  # noqa: E731
+    return lambda B: B - Xs @ fit(B)
+
+
 def coefficients(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Least-squares ``c`` in ``X c ~ y`` by the column-scaled normal equations
     (sinusoid columns are nearly orthogonal; SVD if they are not)."""
@@ -35,6 +50,26 @@ def coefficients(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     except la.LinAlgError:
         c = la.lstsq(Xs, y)[0]
     return c / (scale[:, None] if c.ndim == 2 else scale)
+
+
+def moving_misfit(t: np.ndarray, y: np.ndarray, fixed_for):
+    """``misfit(x)``: the residual sum of squares of ``y`` (n, c) fitted by a
+    sinusoid at ``x`` (rad/s) and the columns of ``design(t, fixed_for(x))``,
+    by least squares. The fixed columns are projected out once per distinct
+    set (``y`` and the two moving columns through the cached projector), so
+    that a search over ``x`` costs two projected columns per evaluation."""
+    cache: dict[tuple[float, ...], tuple] = {}
+
+    def misfit(x: float) -> float:
+        fixed = tuple(float(v) for v in fixed_for(x))
+        if fixed not in cache:
+            project = residual_projector(design(t, fixed))
+            cache[fixed] = (project, project(y))
+        project, rest = cache[fixed]
+        U = project(np.column_stack([np.cos(x * t), np.sin(x * t)]))
+        c = la.lstsq(U.T @ U, U.T @ rest)[0]  # 2 x 2 normal equations (singular: least norm)
+        return float(np.sum((rest - U @ c) ** 2))
+    return misfit
 
 
 def amplitudes(t: np.ndarray, y: np.ndarray, omegas: Sequence[float]) -> np.ndarray:
@@ -130,11 +165,16 @@ def _refine(records: Sequence[Record], omegas: np.ndarray, fixed: np.ndarray, it
             lead += 2 * fixed.size
             a, b = coef[lead::2], coef[lead + 1::2]  # (K, c)
             s, c = np.sin(np.outer(r.t, w)), np.cos(np.outer(r.t, w))
-            for ch in range(r.y.shape[1]):
-                D = r.t[:, None] * (-a[:, ch] * s + b[:, ch] * c)  # d(fit)/d(omega), (n, K)
-                D -= X @ coefficients(X, D)
-                jtj += D.T @ D
-                jtr += D.T @ resid[:, ch]
+            # d(fit)/d(omega_k) of channel ch is -a_k,ch T_s[:, k] + b_k,ch T_c[:, k] with T = t sin, t cos:
+            # project the 2K columns T off X once (Kaufman), then combine per channel through their Gram
+            T = r.t[:, None] * np.hstack([s, c])
+            P = residual_projector(X)(T)
+            G = P.T @ P
+            K = w.size
+            Gss, Gsc, Gcc = G[:K, :K], G[:K, K:], G[K:, K:]
+            jtj += Gss * (a @ a.T) - Gsc * (a @ b.T) - Gsc.T * (b @ a.T) + Gcc * (b @ b.T)
+            TR = T.T @ resid  # (2K, c): the residual is orthogonal to X already
+            jtr += np.sum(-a * TR[:K] + b * TR[K:], axis=1)
         d = np.sqrt(np.diag(jtj))
         d[d == 0] = 1.0
         step = la.lstsq(jtj / np.outer(d, d), jtr / d)[0] / d

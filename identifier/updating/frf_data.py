@@ -62,7 +62,8 @@ from structbench.models import ModelError, Structure
 from ..errors import IdentificationError
 from ..io.frf_files import Frf
 from ..io.traces import Channel, Trace
-from ..perturbation.harmonic import Record, _refine, coefficients, design, free_frequencies, resolvable
+from ..perturbation.harmonic import (Record, _refine, coefficients, design, free_frequencies, moving_misfit,
+                                     resolvable)
 
 ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 MAX_EPS = 0.2
@@ -146,11 +147,6 @@ def _window(trace: Trace) -> np.ndarray:
     return keep
 
 
-def _misfit(t: np.ndarray, y: np.ndarray, w: float, free: np.ndarray, dt: float) -> float:
-    X = design(t, [w, *resolvable(free, w, t[-1] - t[0], dt), 0.0])
-    return float(np.sum((y - X @ coefficients(X, y)) ** 2))
-
-
 def _grid_min(fun, lo: float, hi: float, spacing: float, tol: float) -> float:
     """Least ``fun`` over ``[lo, hi]``: a grid of ``spacing``, then a bounded scalar search."""
     grid = np.linspace(lo, hi, max(5, int(np.ceil((hi - lo) / spacing)) + 1))
@@ -174,15 +170,14 @@ def _line_frequencies(t: np.ndarray, y: np.ndarray, w0: float, ratio: float, fre
     w = w0
     if track:
         half = max(SEARCH_SIGMAS * ratio * w0, 2 * bin_)
-        w = _grid_min(lambda x: _misfit(t, y, x, free, dt), w0 - half, w0 + half, bin_ / 4, 1e-9 * w0)
+        tracked = moving_misfit(t, y, lambda x: [*resolvable(free, x, span, dt), 0.0])
+        w = _grid_min(tracked, w0 - half, w0 + half, bin_ / 4, 1e-9 * w0)
     for i in np.flatnonzero(~found & (np.abs(free - w) < FREE_BAND * free + NEAR_BINS * bin_)):
-        others = np.delete(free, i)
+        others = [w, *resolvable(np.delete(free, i), w, span, dt), 0.0]
+        misfit = moving_misfit(t, y, lambda x: others)
 
         def cost(x: float) -> float:
-            if abs(x - w) < 0.5 * bin_:
-                return np.inf
-            X = design(t, [w, x, *resolvable(others, w, span, dt), 0.0])
-            return float(np.sum((y - X @ coefficients(X, y)) ** 2))
+            return np.inf if abs(x - w) < 0.5 * bin_ else misfit(x)
 
         free[i] = _grid_min(cost, free[i] * (1 - FREE_BAND), free[i] * (1 + FREE_BAND), bin_ / 4, 1e-9 * free[i])
     near = np.flatnonzero((np.abs(free - w) < NEAR_BINS * bin_) & (np.abs(free - w) > 0.5 * bin_))
