@@ -124,7 +124,8 @@ def list_traces(folder: str | Path) -> dict[str, Any]:
 def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None = None,
              groups: Sequence[str] | None = None, tests: Sequence[str] | None = None, joint: bool = False,
              tag: str | None = None, progress: Callable[[int, int], None] | None = None,
-             jobs: int | None = None, prior: str | Path | None = None, **options: Any) -> dict[str, Any]:
+             jobs: int | None = None, prior: str | Path | None = None, repetitions: int | None = None,
+             **options: Any) -> dict[str, Any]:
     """Identify every run of a campaign folder with ``method`` (see
     :func:`methods`, plugins included; its options as keywords, e.g.
     ``samples=8``) and write ``results/<method>[-<tag>].json``; returns that
@@ -134,10 +135,11 @@ def identify(campaign_dir: str | Path, method: str, *, model: str | Path | None 
     ``prior``: the starting model of updating and perturbation (a built-in
     name, TOML model, ``prior.json`` or results file whose parameter values
     are set on the structure); default the campaign's ``[prior]``
-    (``DIR/prior.json``), else the ``-postulated`` variant; never the truth."""
+    (``DIR/prior.json``), else the ``-postulated`` variant; never the truth.
+    ``repetitions``: identify only the first that many repetitions."""
     from structbench.dispatch.runs import identify_folder
     document, _ = identify_folder(campaign_dir, method, str(model) if model is not None else None,
-                                  groups, tests, joint, tag, options, progress, jobs, prior)
+                                  groups, tests, joint, tag, options, progress, jobs, prior, repetitions)
     return document
 
 

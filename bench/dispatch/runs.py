@@ -227,12 +227,14 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
                     joint: bool = False, tag: str | None = None,
                     options: Mapping[str, Any] | None = None,
                     progress: Callable[[int, int], None] | None = None,
-                    jobs: int | None = None, prior: str | Path | None = None) -> tuple[dict[str, Any], Path]:
+                    jobs: int | None = None, prior: str | Path | None = None,
+                    repetitions: int | None = None) -> tuple[dict[str, Any], Path]:
     """Identify every run of a campaign folder with one method and write the
     results file; returns the result document and its path. ``progress``
     receives (runs done, runs in all) after every run; ``jobs``: processes
     (default: one per available core; 1: in this process); ``prior``: the
-    starting model (:func:`resolve_prior`)."""
+    starting model (:func:`resolve_prior`); ``repetitions``: only the runs of
+    the first that many repetitions (by repetition number)."""
     folder = Path(campaign_dir)
     if not folder.is_dir():
         raise IdentificationError(f"no such campaign folder {folder}", field="CAMPAIGN_DIR")
@@ -241,11 +243,17 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
     infos = read_infos(folder)
     resolved, origin = resolve_prior(model, infos, chosen, folder, str(prior) if prior is not None else None)
     runs = group_runs(infos, groups, tests, joint)
+    if repetitions is not None:
+        if repetitions < 1:
+            raise IdentificationError(f"repetitions must be at least 1, got {repetitions}", field="repetitions")
+        first = sorted({run[0].repetition for run in runs})[:repetitions]
+        runs = [run for run in runs if run[0].repetition in first]
     results = identify_runs([[t.path for t in run] for run in runs], chosen, resolved, settings, jobs, progress)
     document = results_document(chosen.name, results, str(infos[0].attrs.get("campaign", "")),
                                 model or (resolved.name if resolved is not None else infos[0].structure),
                                 {"group": list(groups) if groups else None,
-                                 "test": list(tests) if tests else None, "joint": joint} | settings)
+                                 "test": list(tests) if tests else None, "joint": joint}
+                                | ({"repetitions": repetitions} if repetitions is not None else {}) | settings)
     if origin:
         document["prior"] = origin
     path = write_results(result_path(folder, chosen.name, tag), document)

@@ -1,6 +1,7 @@
 """"Beyond the dissertation": the chapter 3 cases identified from every sample
-(bias-compensated least squares) beside the dissertation's set-up, with the
-coverage of the stated standard errors.
+(bias-compensated least squares) beside the dissertation's set-up, and
+chapter 4's case 2 by model updating from FRFs, with the coverage of the
+stated standard errors.
 
 Coverage of a parameter kind: the fraction of (run, parameter) pairs whose
 95 % interval ``value +- 1.96 std_error`` holds the true value, over the
@@ -17,6 +18,7 @@ ROWS: tuple[tuple[str, str], ...] = (
     ("ch3", "least-squares-m8"), ("ch3", "least-squares-all"),
     ("ch3", "least-squares-m8-noisy-displacement"), ("ch3", "least-squares-all-noisy-displacement"),
     ("ch3-damped", "least-squares-m8"), ("ch3-damped", "least-squares-all"),
+    ("ch4-case2", "updating-case2-frf"),
 )
 Z95 = 1.959964
 

@@ -41,8 +41,8 @@ NAMES = ("ch3", "ch3-damped", "ch4-case1", "ch4-case2", "ch5-beam", "ch5-membran
 @dataclass(frozen=True)
 class Step:
     """One identification: campaign, results tag, method, the test groups and
-    tests (patterns) it reads, ``joint`` runs and method ``options``;
-    ``variant`` says what it is in the report."""
+    tests (patterns) it reads, ``joint`` runs, method ``options`` and how many
+    ``repetitions`` (default: all); ``variant`` says what it is in the report."""
 
     campaign: str
     tag: str
@@ -52,6 +52,7 @@ class Step:
     tests: tuple[str, ...] = ()
     joint: bool = False
     options: Mapping[str, Any] = field(default_factory=dict)
+    repetitions: int | None = None  # identify only the first that many
 
     @property
     def stem(self) -> str:
@@ -112,6 +113,11 @@ STEPS: tuple[Step, ...] = (
     Step('ch4-case2', 'case2-noisy', PT,
          'noisy; with natural-frequency equations',
          groups=('noisy',), options={'natural_frequencies': True}),
+    # beyond the dissertation (bench/evaluation/beyond_least_squares.py): model updating from FRFs
+    Step('ch4-case2', 'case2-frf', 'updating',
+         'beyond the dissertation: model updating from the FRFs of the noisy stepped sine (one tip sensor), from '
+         'the postulated model; first 5 repetitions',
+         groups=('noisy',), options={'data': 'frf'}, repetitions=5),
     Step('ch5-beam', 'hann', RY,
          'T = 100 s, Hann-tapered correlations (the headline)',
          groups=('impulse',)),
@@ -231,7 +237,7 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
         begun = time.perf_counter()
         identify_folder(folder, step.method, groups=step.groups or None, tests=step.tests or None,
                         joint=step.joint, tag=step.tag, options=step.options,
-                        jobs=None if jobs is None else max(1, jobs))
+                        jobs=None if jobs is None else max(1, jobs), repetitions=step.repetitions)
         line(f"identified {step.stem} ({time.perf_counter() - begun:.1f} s): {step.variant}")
     scores = score_campaign(folder)
     case_figures(out, name)
