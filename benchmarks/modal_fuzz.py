@@ -19,7 +19,7 @@ noise's in the periodogram, under 10) cannot be seen by any method and is
 listed apart. Last, how often the stated 95 % intervals of the found
 modes' frequencies and damping ratios cover the truth.
 
-    python benchmarks/modal_fuzz.py [--kind decay|stationary] [--seeds 40] [--first 0]
+    python benchmarks/modal_fuzz.py [--kind decay|stationary] [--seeds 40] [--first 0] [--option refine=off]
 
 Held-out profile (``--kind unseen``, :func:`unseen`): random
 structures of 1-8 modes (1-100 rad/s, damping 0.1-10 %), 1-50 sensors of
@@ -51,6 +51,7 @@ from structbench.identifier.errors import IdentificationError  # noqa: E402
 from structbench.identifier.io.traces import Channel, Trace  # noqa: E402
 
 NOISE = 0.02
+OPTIONS: dict[str, str] = {}  # modal.identify's options (--option KEY=VALUE), e.g. refine=off
 
 
 def trace(y: np.ndarray, dt: float) -> Trace:
@@ -106,7 +107,7 @@ def run(kind: str, seed: int) -> dict:
     y, omega, zeta, dt, snr = (decay if kind == "decay" else stationary)(rng, seed)
     row = {"seed": seed, "modes": omega.size, "sensors": y.shape[0], "samples": y.shape[1]}
     try:
-        result = modal.identify([trace(y, dt)])
+        result = modal.identify([trace(y, dt)], **OPTIONS)
     except IdentificationError as exc:
         return row | {"error": str(exc)}
     found = np.array(result.omega)
@@ -227,7 +228,7 @@ def unseen(seed: int) -> dict:
     row = {"seed": seed, "kind": rec["kind"], "modes": omega.size, "sensors": rec["y"].shape[0],
            "samples": rec["y"].shape[1], "periods": round(float(rec["periods"][0]), 1)}
     try:
-        result = modal.identify([unseen_trace(rec)])
+        result = modal.identify([unseen_trace(rec)], **OPTIONS)
     except IdentificationError as exc:
         return row | {"error": str(exc)}
     except Exception as exc:  # noqa: BLE001 - a crash is a finding: counted, and the run goes on
@@ -269,7 +270,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--kind", choices=["decay", "stationary", "unseen"], default="decay")
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--first", type=int, default=0)
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="an option of the modal method, e.g. refine=off")
     args = parser.parse_args(argv)
+    OPTIONS.update(item.split("=", 1) for item in args.option)
     rows = []
     for seed in range(args.first, args.first + args.seeds):
         row = unseen(seed) if args.kind == "unseen" else run(args.kind, seed)

@@ -93,6 +93,7 @@ from .support import judge, with_bias
 from . import harmonics as periodic
 from . import input_output
 from .support import rejected as support_rejected
+from .refine import refine_poles
 from ..io.traces import Channel, Trace
 
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
@@ -152,7 +153,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     it only names the structure). ``drop_unrepeated``: report only modes that
     all jackknife replicates but at most one find again (spurious noise modes
     do not); off, a mode without finite errors is still not reported. ``refine``: ``auto`` fits free responses whole to split close
-    pairs (:mod:`identifier.modal.close_pairs`), ``off`` does not. ``uncertainty``:
+    pairs (:mod:`identifier.modal.close_pairs`) and, on free decays, refines the reported
+    modes' poles by maximum likelihood (:mod:`identifier.modal.refine`); ``off`` does neither. ``uncertainty``:
     ``off`` skips the jackknife (about half the time): no standard errors
     (NaN) and no check that replicates find each mode again. Changes nothing
     outside its own work unless the process opted in to tuning
@@ -237,7 +239,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
                     errors=replicates is not None)
-    rejected = incoherent + support_rejected(omega, zeta, verdict)
+    dropped = support_rejected(omega, zeta, verdict)
+    rejected = incoherent + dropped
     kept = verdict.keep
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
@@ -249,6 +252,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     omega, zeta, omega_se, zeta_se = split.omega[finite], split.zeta[finite], split.omega_std[finite], \
         split.zeta_std[finite]
     shapes, refined, source = split.shapes[:, finite], split.refined[finite], split.source[finite]
+    ml = refine_poles(traces, records, dt, omega, zeta, omega_se, zeta_se, refined,
+                      [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
+    omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
     periodic.on_modes(found, omega, zeta)
     modes = [modes[i] if i >= 0 else None for i in source]  # -1: found by the free-decay fit
     fits = [fits[i] if i >= 0 else None for i in source]
@@ -266,6 +272,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "support": [md.support if md else None for md in modes],
                  "coherence": fits,
                  "refined": refined.tolist(),
+                 "ml_refinement": ml.details,
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
