@@ -13,7 +13,7 @@ from scipy.signal import lfilter
 
 from structbench.identifier import modal
 from structbench.identifier.io.traces import Channel, Trace
-from structbench.identifier.modal import refine
+from structbench.identifier.modal import ml_fit, refine
 
 OMEGA = np.array([2.0, 3.1, 5.3])  # rad/s
 ZETA = np.array([0.01, 0.02, 0.015])
@@ -178,7 +178,7 @@ def test_refused_per_mode_when_a_pole_moves_too_far_or_the_fit_fails(monkeypatch
     assert "moved" in out.details["mode_reasons"][1] and "SSI kept" in out.details["mode_reasons"][1]
     assert out.omega[1] == start_w[1] and out.omega_std[1] == std_w[1]
     assert np.all(np.abs(out.omega[[0, 2]] - OMEGA[[0, 2]]) < 4 * bound[[0, 2], 0])
-    monkeypatch.setattr(refine, "MAX_ITERATIONS", 0)
+    monkeypatch.setattr(ml_fit, "MAX_ITERATIONS", 0)
     failed = direct(y, start_w, start_z, std_w, 5 * bound[:, 1])
     assert not failed.applied.any() and failed.details["reason"] == "the fit did not converge"
     assert np.array_equal(failed.omega, start_w)
