@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from . import beyond_modal, plots
-from .reproduce import STEPS
+from .steps import STEPS
 
 # The dissertation's figures (shared/reference/dissertation-cases.md).
 PUBLISHED: dict[str, dict[str, Any]] = {
