@@ -113,6 +113,11 @@ def _efficiency(eff: dict[str, Any] | None) -> str:
             + ("" if eff["same_settings"] else "*"))
 
 
+def _rms(x: float) -> str:
+    """A normalized RMS: 4 decimals, or 2 significant digits below 0.001."""
+    return f"{x:.4f}" if x >= 1e-3 else f"{x:.2g}"
+
+
 def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path]:
     """Table of the "beyond the dissertation" rows and the coverage figure."""
     rows = summary["ch3-beyond"]
@@ -132,7 +137,7 @@ def _beyond_section(out: Path, summary: dict[str, Any]) -> tuple[list[str], Path
                           + (f", {v['coverage95']:.2f}" if "coverage95" in v else "") for k, v in r["kinds"].items())
         step = next(s for s in STEPS if s.campaign == campaign and s.stem == stem)
         lines.append(f"| {campaign} `{stem}` | {step.variant} | "
-                     f"{r['rms']['median']:.4f} ({r['rms']['p10']:.4f}-{r['rms']['p90']:.4f}) | {kinds} | "
+                     f"{_rms(r['rms']['median'])} ({_rms(r['rms']['p10'])}-{_rms(r['rms']['p90'])}) | {kinds} | "
                      f"{_efficiency(r.get('efficiency'))} |")
     figure = plots.coverage(out / "ch3-coverage.png", "Chapter 3: coverage of the stated 95 % intervals",
                             {key: {k: v["coverage95"] for k, v in r["kinds"].items() if "coverage95" in v}
