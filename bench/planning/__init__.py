@@ -30,7 +30,8 @@ FORMAT = "structbench-plan"
 BOUNDS = {"least-squares": "Cramer-Rao of the regression (noise-free responses, the campaign's noise) plus the "
                            "second-order errors-in-variables term: the spread of the bias-compensated estimator",
           "modal": "Cramer-Rao of damped sinusoids in white noise: the spread of an efficient (maximum-likelihood) "
-                   "estimator; SSI-cov lands above it (1-5x in benchmarks/plan_accuracy.py)",
+                   "estimator; the modal method's free-decay refinement reaches it, SSI-cov alone (refine=off) lands "
+                   "1-5x above it (benchmarks/plan_accuracy.py)",
           "updating": "Cramer-Rao of the element parameters from the free decay's frequencies and mode shapes in "
                       "unknown scale (damping and initial conditions nuisance): the spread of an efficient "
                       "estimator that uses the record's modes as updating does"}
