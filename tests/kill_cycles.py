@@ -105,13 +105,22 @@ class Cycle:
     identical: bool
 
 
-def kill_cycle(bench: Bench, out: Path, rng: np.random.Generator, damage: bool) -> Cycle:
+def kill_cycle(bench: Bench, out: Path, rng: np.random.Generator, damage: bool, booked_first: bool = False
+               ) -> Cycle:
     """Start the campaign into ``out``, kill -9 it (and its workers) at a random
-    moment, maybe damage a booked trace, resume and compare with the reference."""
+    moment (with ``booked_first``: the moment the first trace is booked in
+    ``status.json``), maybe damage a booked trace, resume and compare with
+    the reference."""
     delay = float(rng.uniform(bench.first, bench.seconds))  # while traces are being written
     process = subprocess.Popen(command(bench.campaign, out), start_new_session=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(delay)
+    if booked_first:
+        start = time.monotonic()
+        while process.poll() is None and not _booked(out):
+            time.sleep(0.005)
+        delay = time.monotonic() - start
+    else:
+        time.sleep(delay)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     traces = sorted((out / "traces").glob("*.h5")) if (out / "traces").is_dir() else []
