@@ -88,7 +88,8 @@ def plan(campaign: str | Path, method: str, **options: Any) -> dict[str, Any]:
     errors (Cramer-Rao bounds) of what ``method`` (``least-squares``,
     ``modal``) identifies from a campaign's test, on the campaign's model;
     options ``model``, ``test``, ``candidates`` + ``sensors`` (a sensor
-    layout, written as a campaign file), ``verify`` (Monte Carlo
+    layout, written as a campaign file; ``criterion`` ``frequencies``,
+    ``d-optimal`` or ``effective-independence``, ``target_modes``), ``verify`` (Monte Carlo
     repetitions), ``seed``, ``jobs``, ``progress``. Returns the plan document."""
     from structbench.planning import plan as make_plan
     return make_plan(campaign, method, **options)

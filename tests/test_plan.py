@@ -232,9 +232,12 @@ quantities = ["displacement"]
     rng = np.random.default_rng(24)
     random = [layouts.evaluate(info, d, rng.choice(len(cands), 10, replace=False).tolist(), eps)
               for _ in range(200)]
-    best = lay["layouts"][lay["chosen"]]
+    best = lay["layouts"]["d-optimal"]
     assert best["log_det"] >= max(r["log_det"] for r in random)
     assert best["median_rel_omega_std"] < 0.8 * np.median([r["median_rel_omega_std"] for r in random])
+    chosen = lay["layouts"][lay["chosen"]]  # the default criterion: the frequencies' predicted RMS error
+    assert lay["criterion"] == "frequencies" and chosen["rms_rel_omega_std"] <= best["rms_rel_omega_std"]
+    assert chosen["rms_rel_omega_std"] < 0.8 * np.median([r["rms_rel_omega_std"] for r in random])
     efi = layouts.effective_independence(psi, np.arange(len(cands)), 10)  # Kammer's own criterion, det(Psi^T Psi)
     kammer = [np.linalg.slogdet(psi[i].T @ psi[i])[1] for i in
               [efi] + [rng.choice(len(cands), 10, replace=False) for _ in range(200)]]

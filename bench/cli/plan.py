@@ -21,6 +21,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--test", metavar="NAME", help="test group (default: the campaign's first)")
     parser.add_argument("--candidates", metavar="FILE", help="candidate sensors, TOML or CSV (docs/plan.md)")
     parser.add_argument("--sensors", type=int, metavar="K", help="sensor budget: channels to choose")
+    parser.add_argument("--criterion", default="frequencies",
+                        choices=("frequencies", "d-optimal", "effective-independence"),
+                        help="layout criterion (default frequencies: least predicted RMS relative error of the "
+                             "target modes' frequencies)")
+    parser.add_argument("--target-modes", type=int, metavar="N",
+                        help="the frequencies criterion targets the lowest N planned modes (default all)")
     parser.add_argument("--layout-out", metavar="FILE", help="campaign file of the chosen layout")
     parser.add_argument("--verify", type=int, default=0, metavar="N", help="Monte Carlo repetitions through the FMU")
     parser.add_argument("--seed", type=int, default=0, help="seed of the --verify runs (default 0)")
@@ -32,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     say = (lambda line: print(line, file=sys.stderr)) if not args.json else None
     doc = api.plan(args.campaign, args.method, model=args.model, test=args.test, candidates=args.candidates,
-                   sensors=args.sensors, layout_out=args.layout_out, verify=args.verify, seed=args.seed,
+                   sensors=args.sensors, layout_out=args.layout_out,
+                   criterion=args.criterion, target_modes=args.target_modes, verify=args.verify, seed=args.seed,
                    verify_out=args.verify_out, jobs=args.jobs, progress=say)
     if args.json:
         print(json.dumps(doc, indent=1))
@@ -53,11 +60,13 @@ def table(doc: dict[str, Any]) -> list[str]:
     ver = doc.get("verify")
     if doc.get("layout"):
         lay = doc["layout"]
-        lines.append(f"layout: {lay['chosen']} ({len(lay['sensors'])} of {lay['candidates']} candidates) -> "
+        lines.append(f"layout: {lay['chosen']} by criterion {lay['criterion']} ({len(lay['sensors'])} of "
+                     f"{lay['candidates']} candidates; {len(lay['target_modes'])} target modes) -> "
                      f"{lay['campaign']}")
         for name, row in lay["layouts"].items():
-            lines.append(f"  {name:18s} log det F = {row['log_det']:10.4g}   median predicted omega std / omega = "
-                         f"{row['median_rel_omega_std']:.3g}   sensors: "
+            lines.append(f"  {name:22s} log det F = {row['log_det']:10.4g}   predicted omega std / omega: median "
+                         f"{row['median_rel_omega_std']:.3g}, RMS of the targets {row['rms_rel_omega_std']:.3g}"
+                         "   sensors: "
                          + " ".join(f"{q[0]}_{n}_{d}" for n, d, q in row["sensors"]))
     if doc["parameters"]:
         extra = "   achieved      ratio" if ver else ""

@@ -5,9 +5,9 @@ Monte Carlo check (docs/plan.md).
 One module per job: :mod:`.response` (noise-free responses from the
 planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
 frequencies and damping), :mod:`.updating` (element parameters from a free
-decay's modes), :mod:`.layouts` (effective independence and
-D-optimal sensor layouts), :mod:`.campaign_files` (the campaign files a
-plan writes), :mod:`.verify` (``--verify``); the command line prints the
+decay's modes), :mod:`.layouts` (effective independence, D-optimal and,
+:mod:`.targeted`, frequency-targeted sensor layouts), :mod:`.campaign_files`
+(the campaign files a plan writes), :mod:`.verify` (``--verify``); the command line prints the
 table (``structbench.cli.plan``).
 
 May import: models, the harness (campaigns, excitation; the planning model's
@@ -76,7 +76,8 @@ def _updating(model: Model, specs) -> dict[str, Any]:
 
 def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, test: str | None = None,
          candidates: str | Path | None = None, sensors: int | None = None, layout_out: str | Path | None = None,
-         verify: int = 0, seed: int = 0, verify_out: str | Path | None = None, jobs: int | None = None,
+         criterion: str = "frequencies", target_modes: int | None = None, verify: int = 0, seed: int = 0,
+         verify_out: str | Path | None = None, jobs: int | None = None,
          progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """The plan document (docs/plan.md) of ``method`` on ``test`` (default: the
     campaign's first test group) of ``campaign``: predicted standard errors
@@ -84,9 +85,12 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
     ``{omega, predicted_omega_std, zeta, predicted_zeta_std}``, SI). The planning
     model is ``model`` or the campaign's structure with its ``[parameters]``.
     With ``candidates`` and ``sensors`` (a budget K) also ``layout``: layouts by
-    effective independence and D-optimal design, the better one written as a
-    campaign file ``layout_out`` (default ``<campaign>-plan-<test>.toml``
-    in the working folder) and planned on. ``verify`` > 0: that many Monte
+    effective independence, D-optimal design and targeted on the frequencies
+    (the lowest ``target_modes`` planned modes, default all), the one the
+    ``criterion`` (``frequencies``: least predicted RMS relative frequency
+    error; ``d-optimal``: largest ``log det``; ``effective-independence``)
+    chooses written as a campaign file ``layout_out`` (default
+    ``<campaign>-plan-<test>.toml`` in the working folder) and planned on. ``verify`` > 0: that many Monte
     Carlo repetitions (seed ``seed``) through the FMU and the method, ``verify``
     holding predicted against achieved standard deviations."""
     from structbench.harness.campaign import load_campaign
@@ -109,7 +113,7 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
     if candidates is not None:
         from .layouts import plan_layout
         document["layout"] = plan_layout(planning, specs, method, candidates, int(sensors), path, name,
-                                         layout_out)
+                                         layout_out, criterion=criterion, target_modes=target_modes)
         run_file = Path(document["layout"]["campaign"])
         loaded = load_campaign(run_file)
         name, specs = _chosen_tests(loaded, name)

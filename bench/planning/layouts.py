@@ -7,9 +7,9 @@ campaign sensor entries (``nodes`` = list or ``"all"``, optional ``dirs``,
 Fisher information ``I_c = L_c^T Q L_c / sigma_c^2`` (2R, 2R) on the modes'
 ``(alpha_r, wd_r)`` (:mod:`.free_decay`), in relative units (each pair
 divided by ``omega_r``), for the modes that every candidate together
-determines to :data:`PRECISE` (relative omega standard error). Two layouts of ``K`` channels, at most one per
-(node, direction) since the modal identifier takes one channel per
-location:
+determines to :data:`PRECISE` (relative omega standard error). Three
+layouts of ``K`` channels, at most one per (node, direction) since the
+modal identifier takes one channel per location:
 
 * effective independence (Kammer 1991): from all candidates, repeatedly
   drop the one of least ``E_c = psi_c^T (Psi^T Psi)^-1 psi_c``, ``psi_c``
@@ -17,13 +17,20 @@ location:
   (one at a time near the budget, in batches of 5 % far above it);
 * D-optimal on the method's own information: greedy, the channel that most
   increases ``log det(sum I_c + eps I)``, then exchange passes (each chosen
-  channel swapped for the best other while that improves), O(K C R^3) per pass.
+  channel swapped for the best other while that improves), O(K C R^3) per pass
+  (candidates screened by each mode's own block above a shortlist);
+* targeted on the frequencies (:mod:`.targeted`): greedy and exchanges on
+  the summed predicted ``var(omega_r) / omega_r^2`` of the lowest
+  ``target_modes`` planned modes (default: every planned mode).
 
-The one of larger ``log det`` is chosen and written as a campaign file
-(default ``./<campaign>-plan-<test>.toml``).
+The ``criterion`` picks the layout written as a campaign file (default
+``./<campaign>-plan-<test>.toml``): ``frequencies`` (default) the one of
+least predicted RMS relative error of the target frequencies, ``d-optimal``
+the one of largest ``log det``, ``effective-independence`` Kammer's.
 Fails (:class:`UserError`) for least squares (it needs a response at every
 DOF), an unreadable file, a candidate that is not a model DOF, or a budget
-above the number of distinct locations.
+above the number of distinct locations, an unknown criterion, or target
+modes outside 1..(planned modes).
 """
 from __future__ import annotations
 
@@ -38,11 +45,13 @@ from structbench.models import Model
 from structbench.models.errors import UserError
 
 from . import free_decay as fd
+from . import targeted as tg
 from .campaign_files import test_campaign
 
 RIDGE = 1e-9  # eps relative to the largest diagonal entry of the full candidate information
 EXCHANGE_PASSES = 3
 EFI_BATCH = 4  # effective independence drops one candidate at a time below this many times the budget
+CRITERIA = ("frequencies", "d-optimal", "effective-independence")
 PRECISE = 0.005  # modes planned for: predicted omega std below this share of omega with every candidate measured
 
 
@@ -140,15 +149,25 @@ def effective_independence(psi: np.ndarray, locations: np.ndarray, k: int) -> li
 
 
 def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> list[int]:
-    """Greedy D-optimal choice of ``k`` candidates (one per location), then exchanges."""
+    """Greedy D-optimal choice of ``k`` candidates (one per location), then
+    exchanges. Above :data:`~.targeted.SHORTLIST` allowed candidates a step
+    ranks them by the decoupled-mode ``sum_r log det`` of each mode's 2 x 2
+    block of ``J + I_c`` (O(C R)) and takes the exact ``log det`` of the best
+    ``SHORTLIST``."""
     ridge = eps * np.eye(info.shape[1])
+    blocks = tg.mode_blocks(info)
 
     def best(J: np.ndarray, banned: set[int]) -> tuple[int, float]:
-        ok = np.array([loc not in banned for loc in locations])
+        ok = np.flatnonzero([loc not in banned for loc in locations])
+        if ok.size > tg.SHORTLIST:
+            pqs = tg.mode_blocks(J)[None] + blocks[ok]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                approx = np.sum(np.log(pqs[..., 0] * pqs[..., 2] - pqs[..., 1] ** 2), axis=1)
+            ok = ok[np.argsort(-np.nan_to_num(approx, nan=-np.inf), kind="stable")[:tg.SHORTLIST]]
         sign, val = np.linalg.slogdet(J[None] + info[ok])
         val = np.where(sign > 0, val, -np.inf)
         i = int(np.argmax(val))
-        return int(np.flatnonzero(ok)[i]), float(val[i])
+        return int(ok[i]), float(val[i])
 
     chosen: list[int] = []
     J = ridge.copy()
@@ -169,19 +188,28 @@ def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> li
     return chosen
 
 
-def evaluate(info: np.ndarray, d: fd.Decay, chosen: list[int], eps: float) -> dict[str, Any]:
-    """``log det`` of the layout's relative information and its median predicted
-    relative omega standard error."""
+def evaluate(info: np.ndarray, d: fd.Decay, chosen: list[int], eps: float,
+             targets: int | None = None) -> dict[str, Any]:
+    """``log det`` of the layout's relative information, its median predicted
+    relative omega standard error over the planned modes and the RMS of it
+    over the lowest ``targets`` (default all) planned modes
+    (``sqrt(f / T)`` of :mod:`.targeted`)."""
     J = info[chosen].sum(axis=0) + eps * np.eye(info.shape[1])
     scale = np.repeat(d.omega, 2)
     cov = fd.omega_zeta_covariance(d, J / np.outer(scale, scale))
-    return {"log_det": _logdet(J), "median_rel_omega_std": float(np.median(np.sqrt(cov[:, 0, 0]) / d.omega))}
+    rel = np.sqrt(cov[:, 0, 0]) / d.omega
+    count = d.omega.size if targets is None else targets
+    return {"log_det": _logdet(J), "median_rel_omega_std": float(np.median(rel)),
+            "rms_rel_omega_std": float(np.sqrt(np.mean(rel[:count] ** 2)))}
 
 
 def plan_layout(model: Model, specs, method: str, candidates: str | Path, k: int, campaign: Path, test: str,
-                out: str | Path | None = None) -> dict[str, Any]:
-    """The ``layout`` section of a plan (both layouts, the chosen one and the
-    campaign file written with it)."""
+                out: str | Path | None = None, criterion: str = "frequencies",
+                target_modes: int | None = None) -> dict[str, Any]:
+    """The ``layout`` section of a plan (the three layouts, the one the
+    ``criterion`` chooses and the campaign file written with it)."""
+    if criterion not in CRITERIA:
+        raise UserError(f"no layout criterion {criterion!r}; criteria: {', '.join(CRITERIA)}", field="--criterion")
     if method != "modal":
         raise UserError(f"sensor layouts are planned for the modal method; {method} needs a response at every "
                         "DOF", field="--candidates")
@@ -196,14 +224,26 @@ def plan_layout(model: Model, specs, method: str, candidates: str | Path, k: int
     info, psi, d = candidate_information(model, specs[0], cands)
     if info.shape[1] == 0:
         raise UserError("no mode of the test is visible at the candidates", field="--candidates")
+    planned = d.omega.size
+    targets = planned if target_modes is None else int(target_modes)
+    if not 1 <= targets <= planned:
+        raise UserError(f"must be between 1 and the {planned} planned modes", field="--target-modes")
     eps = RIDGE * float(np.max(np.diag(info.sum(axis=0))))
-    layouts = {"effective-independence": effective_independence(psi, locations, k),
-               "d-optimal": d_optimal(info, locations, k, eps)}
-    rows = {name: evaluate(info, d, idx, eps) | {"sensors": [list(cands[i]) for i in sorted(idx)]}
+    layouts = {"frequencies": tg.targeted(info, d.zeta, locations, k, eps, targets),
+               "d-optimal": d_optimal(info, locations, k, eps),
+               "effective-independence": effective_independence(psi, locations, k)}
+    rows = {name: evaluate(info, d, idx, eps, targets) | {"sensors": [list(cands[i]) for i in sorted(idx)]}
             for name, idx in layouts.items()}
-    chosen = max(rows, key=lambda name: rows[name]["log_det"])
+    if criterion == "frequencies":
+        chosen = min(rows, key=lambda name: rows[name]["rms_rel_omega_std"])
+    elif criterion == "d-optimal":
+        chosen = max(rows, key=lambda name: rows[name]["log_det"])
+    else:
+        chosen = criterion
     target = Path(out) if out is not None else Path.cwd() / f"{campaign.stem}-plan-{test}.toml"
     target.write_text(test_campaign(campaign, test, sensors=[tuple(s) for s in rows[chosen]["sensors"]],
                                     only=False), encoding="utf-8")
-    return {"candidates": len(cands), "budget": k, "chosen": chosen, "sensors": rows[chosen]["sensors"],
-            "campaign": str(target), "layouts": rows, "modes_planned": [float(w) for w in d.omega]}
+    return {"candidates": len(cands), "budget": k, "criterion": criterion,
+            "target_modes": [float(w) for w in d.omega[:targets]], "chosen": chosen,
+            "sensors": rows[chosen]["sensors"], "campaign": str(target), "layouts": rows,
+            "modes_planned": [float(w) for w in d.omega]}
