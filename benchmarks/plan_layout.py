@@ -6,6 +6,10 @@ DOF, Rayleigh damping, zeta 0.4-2 % over modes 1-10), a free decay after a
 the displacement (w, m) or rotation (theta, rad) of every DOF, 50; budget 10.
 ``--candidates w``: the beam as 51 elements instead and the transverse
 displacements of its 50 inner nodes as candidates (no rotation sensors).
+``--quantities mixed``: the displacement, velocity or acceleration of each
+of those DOF (150 candidate channels, one per DOF chosen); the random
+layouts then draw the same DOF as before and a quantity per DOF from a
+second generator (seed 7).
 ``structbench plan --candidates --sensors 10 --criterion C --target-modes 10``
 chooses a layout (default criterion ``frequencies``: the least predicted RMS
 relative error of omega_1..10, the figure scored here); it, the other two
@@ -24,6 +28,7 @@ on 50 candidates).
 
     python benchmarks/plan_layout.py [--reps 5] [--random 50] [--candidates all|w]
                                      [--criterion frequencies|d-optimal|effective-independence] [--target-modes 10]
+                                     [--quantities displacement|mixed]
 """
 from __future__ import annotations
 
@@ -104,6 +109,7 @@ def main() -> None:
     parser.add_argument("--candidates", choices=("all", "w"), default="all")
     parser.add_argument("--criterion", choices=plan_layouts.CRITERIA, default="frequencies")
     parser.add_argument("--target-modes", type=int, default=10)
+    parser.add_argument("--quantities", choices=("displacement", "mixed"), default="displacement")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -112,7 +118,9 @@ def main() -> None:
         node = round(1.2 / (10.0 / elements)) + 1  # the impulse at x = 1.2 m
         (folder / "c.toml").write_text(CAMPAIGN.format(model=model.name, node=node))
         dirs = "" if args.candidates == "all" else 'dirs = ["w"]\n'
-        (folder / "cand.toml").write_text(f'[[candidates]]\nnodes = "all"\n{dirs}quantities = ["displacement"]\n')
+        kinds = ["displacement"] if args.quantities == "displacement" else ["displacement", "velocity", "acceleration"]
+        (folder / "cand.toml").write_text(f'[[candidates]]\nnodes = "all"\n{dirs}quantities = {kinds!r}\n'
+                                          .replace("'", '"'))
         start = time.perf_counter()
         doc = sb.plan(folder / "c.toml", "modal", candidates=folder / "cand.toml", sensors=10,
                       layout_out=folder / "layout.toml", criterion=args.criterion, target_modes=args.target_modes)
@@ -125,11 +133,12 @@ def main() -> None:
                   f"{row['median_rel_omega_std']:.2e}, RMS of the targets {row['rms_rel_omega_std']:.2e}")
         loaded = sb.load_campaign(folder / "c.toml")
         dofs = [d for d in loaded.model.dofs if args.candidates == "all" or d[1] == "w"]
-        rng = np.random.default_rng(2024)
+        rng, rng_kind = np.random.default_rng(2024), np.random.default_rng(7)
         layouts = {"planned": [tuple(s) for s in lay["sensors"]]}
         for i in range(args.random):
             pick = rng.choice(len(dofs), 10, replace=False)
-            layouts[f"random-{i:02d}"] = [(dofs[j][0], dofs[j][1], "displacement") for j in sorted(pick)]
+            layouts[f"random-{i:02d}"] = [(dofs[j][0], dofs[j][1], kinds[int(rng_kind.integers(len(kinds)))]
+                                           if len(kinds) > 1 else kinds[0]) for j in sorted(pick)]
         layouts |= {name: [tuple(s) for s in row["sensors"]] for name, row in lay["layouts"].items()
                     if name != lay["chosen"]}  # after the random ones: their tests keep their noise seeds
         predicted_ratios(loaded, layouts, folder / "cand.toml", args.target_modes)
