@@ -108,7 +108,9 @@ from .ols import WEIGHTINGS, solve
 from ..io.results import Identification, ParameterEstimate
 from ..io.traces import Channel, Trace
 from . import frequency_data
-from .quantities import MAX_LAM_DT, corner, prefiltered_run, response_channels
+from .quantities import MAX_LAM_DT, corner, missing_message, prefiltered_run, present_channels, response_channels
+from . import unmeasured_data
+from .unmeasured_data import unmeasured_dofs
 
 RCOND = 1e-7
 INTEGRATIONS = ("auto",) + METHODS
@@ -239,6 +241,17 @@ def choose_domain(traces: Sequence[Trace], model: Structure, domain: str = "auto
     """``(domain, why)``: ``domain`` itself unless ``"auto"`` (module docstring, "Domain")."""
     if domain not in DOMAINS:
         raise IdentificationError(f"unknown domain {domain!r}; known: {', '.join(DOMAINS)}", field="domain")
+    unmeasured = unmeasured_dofs(traces, model)
+    if unmeasured:
+        gaps = [(t, missing_message(t, model)) for t in traces]
+        trace, gap = next((t, g) for t, g in gaps if g)
+        if domain == "time" or not any(present_channels(t, model) for t in traces):
+            raise IdentificationError(f"{trace.path.name}: least squares in the time domain needs one of "
+                                      f"displacement/velocity/acceleration on every DOF of the model; {gap}"
+                                      + ("; domain=auto or frequency takes the unmeasured-DOF path"
+                                         if domain == "time" else ""), field="channels")
+        return "frequency", (f"{len(unmeasured)} unmeasured DOF ({', '.join(map(str, unmeasured[:4]))}"
+                             f"{', ...' if len(unmeasured) > 4 else ''}): output error at the measured DOF on FRFs")
     if domain != "auto":
         return domain, "asked for"
     if all(_every_dof_has(t, "acceleration", model) for t in traces):
@@ -274,8 +287,22 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
     chosen_domain, why = choose_domain(traces, model, domain)
     if chosen_domain == "frequency" and (samples is not None or integration != "auto"):
         raise IdentificationError("samples, interval and integration apply to the time domain; the frequency "
-                                  "domain uses every FRF line (domain=time for them)", field="domain")
-    if chosen_domain == "frequency":
+                                  f"domain ({why}) uses every FRF line", field="domain")
+    undetermined = np.zeros(int(model.kind_mask().sum()), dtype=bool)
+    if chosen_domain == "frequency" and unmeasured_dofs(traces, model):
+        if estimator != "bias-compensated" or weighting != "noise":
+            raise IdentificationError("with unmeasured DOF least squares is the output error at the measured DOF "
+                                      "(noise-weighted): estimator and weighting take their defaults",
+                                      field="estimator")
+        try:
+            est, undetermined = unmeasured_data.solve_traces(traces, model, lambda t, c: _sigma(t, c, estimated))
+        except IdentificationError as err:
+            trace = next(t for t in traces if missing_message(t, model))
+            raise IdentificationError(f"{trace.path.name}: {missing_message(trace, model)}; least squares with "
+                                      f"unmeasured DOF (frequency domain, output error at the measured DOF) "
+                                      f"refused: {err}", field=err.field) from None
+        motion, how, extra = None, ["frequency-domain, unmeasured DOF condensed"], {}
+    elif chosen_domain == "frequency":
         est = frequency_data.solve_traces(traces, model, lambda t, c: _sigma(t, c, estimated), weighting, rcond,
                                           compensate=estimator == "bias-compensated")
         motion, how, extra = None, ["frequency-domain"], {}
@@ -321,7 +348,7 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
     p = model.values.copy()
     p[mask] = est.values
     try:
-        omega = model.with_values(p).modes(min(10, model.n_dof)).omega.tolist()
+        omega = [] if undetermined.any() else model.with_values(p).modes(min(10, model.n_dof)).omega.tolist()
     except ModelError:  # a non-physical (negative) estimate under heavy noise
         omega = []
     times = ({} if motion is None else {"sample_times": motion.times.tolist()} if samples is not None
@@ -330,8 +357,8 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
     return Identification(
         method="least-squares", structure=model.name, repetition=traces[0].repetition,
         tests=[t.test for t in traces],
-        parameters=[ParameterEstimate(q.label, q.kind, q.unit, float(v), float(s))
-                    for q, v, s in zip(chosen, est.values, est.std_errors)],
+        parameters=[ParameterEstimate(q.label, q.kind, q.unit, float(v), None if u else float(s))
+                    for q, v, s, u in zip(chosen, est.values, est.std_errors, undetermined)],
         omega=omega,
         details=times | est.details | {
             "n_equations": est.n_equations, "condition": est.condition, "residual_rms": est.residual_rms,

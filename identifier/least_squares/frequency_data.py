@@ -54,7 +54,7 @@ from ..io.traces import Channel, Trace
 from .estimate import Estimate
 from .frequency import CLUSTER, REWEIGHTINGS, Lines, matrices, solve_lines
 from .frequency_output import refine
-from .quantities import _dof, response_channels
+from .quantities import _dof, present_channels, response_channels
 
 LEVELS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 MIN_COHERENCE = 0.5
@@ -65,10 +65,11 @@ FIRST_OMEGA_DT = 0.3  # the first estimate (before any defect is known) from lin
 
 @dataclass
 class Measured:
-    """One FRF group at its kept lines: ``omega`` (L,) rad/s, ``H`` (L, n)
-    as measured (each DOF at its level), ``var`` (L, n) receptance variance,
-    ``levels`` (n,), ``force`` (DOF index), ``dt``, ``held`` (force held over
-    each sample: the ZOH defect applies), ``cluster`` (L,)."""
+    """One FRF group at its kept lines: ``omega`` (L,) rad/s, ``H`` (L, s)
+    as measured at the ``dofs`` (s,) that have a response channel (each at
+    its level), ``var`` (L, s) receptance variance, ``levels`` (s,),
+    ``force`` (DOF index), ``dt``, ``held`` (force held over each sample:
+    the ZOH defect applies), ``cluster`` (L,)."""
 
     omega: np.ndarray
     H: np.ndarray
@@ -81,9 +82,21 @@ class Measured:
     analysis: str
     lines_total: int
     force_noise: bool
+    dofs: np.ndarray
 
 
-def _groups(traces: Sequence[Trace], model: Structure) -> dict[tuple, list[Trace]]:
+def _channels(trace: Trace, model: Structure, partial: bool) -> tuple[list[Channel], np.ndarray]:
+    """The response channels (lowest level per DOF) and their DOF indices:
+    every DOF's (``partial`` False: raises naming a DOF without one), or
+    those of the measured DOF only."""
+    if not partial:
+        return response_channels(trace, model), np.arange(model.n_dof)
+    best = present_channels(trace, model)
+    dofs = np.array(sorted(best), dtype=int)
+    return [best[j] for j in dofs], dofs
+
+
+def _groups(traces: Sequence[Trace], model: Structure, partial: bool = False) -> dict[tuple, list[Trace]]:
     groups: dict[tuple, list[Trace]] = {}
     for t in traces:
         forces = t.require_forces()
@@ -91,7 +104,7 @@ def _groups(traces: Sequence[Trace], model: Structure) -> dict[tuple, list[Trace
         if len(dofs) != 1:
             raise IdentificationError(f"{t.path.name}: the frequency domain needs one force location per test "
                                       f"(FRFs per force); forces at {sorted(dofs)}", field="channels")
-        chans = response_channels(t, model)
+        chans = _channels(t, model, partial)[0]
         key = (forces[0].name, tuple(c.name for c in chans), round(t.dt, 12), round(t.step, 12))
         groups.setdefault(key, []).append(t)
     return groups
@@ -104,12 +117,13 @@ def _noise_density(group: Sequence[Trace], name: str, sigma_of: Callable[[Trace,
 
 
 def measured(traces: Sequence[Trace], model: Structure,
-             sigma_of: Callable[[Trace, Channel], np.ndarray]) -> list[Measured]:
-    """The FRF groups of ``traces`` (module docstring)."""
+             sigma_of: Callable[[Trace, Channel], np.ndarray], partial: bool = False) -> list[Measured]:
+    """The FRF groups of ``traces`` (module docstring); ``partial``: at the
+    DOF that have a response channel (else every DOF must have one)."""
     out = []
-    for (force_name, names, _, _), group in _groups(traces, model).items():
+    for (force_name, names, _, _), group in _groups(traces, model, partial).items():
         first = group[0]
-        chans = response_channels(first, model)
+        chans, dofs = _channels(first, model, partial)
         n_min = min(t.time.size for t in group)
         segment = None  # the FRF's default (about 1/16 of the samples), at most MAX_SEGMENT samples
         if _analysis_of(first) == "welch" and 2 ** int(np.log2(max(8, min(n_min, sum(t.time.size for t in group) / 16)))) > MAX_SEGMENT:
@@ -140,7 +154,7 @@ def measured(traces: Sequence[Trace], model: Structure,
         var_rec = var[:, keep].T / w[:, None] ** (2 * levels[None, :])
         out.append(Measured(w, H[:, keep].T, var_rec, levels, _dof(first, fchan, model), first.dt,
                             bool(np.isclose(first.step, first.dt)), cluster[keep], frf.analysis, omega.size,
-                            bool(np.any(n_ff > 0))))
+                            bool(np.any(n_ff > 0)), dofs))
     return out
 
 
@@ -165,8 +179,8 @@ def sampled(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
     y = np.zeros((z.size, m), dtype=complex)
     for k in range(m - 1, -1, -1):  # (z I - T) y = rhs, T upper triangular
         y[:, k] = (rhs[k] + y[:, k + 1:] @ T[k, k + 1:]) / (z - T[k, k])
-    out = np.stack([ss.Cd, ss.Cv, ss.Ca])[part.levels, np.arange(part.levels.size)]  # (n, 2 n)
-    direct = np.where(part.levels == 2, ss.Da[:, part.force], 0.0)
+    out = np.stack([ss.Cd, ss.Cv, ss.Ca])[part.levels, part.dofs]  # (s, 2 n)
+    direct = np.where(part.levels == 2, ss.Da[part.dofs, part.force], 0.0)
     return (y @ Q.T) @ out.T + direct[None, :]
 
 
@@ -177,12 +191,13 @@ def continuous(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
     Z = K[None] - (w**2)[:, None, None] * M[None] + 1j * w[:, None, None] * C[None]
     e = np.zeros((w.size, M.shape[0], 1), dtype=complex)
     e[:, part.force] = 1.0
-    return np.linalg.solve(Z, e)[..., 0] * (1j * w[:, None]) ** part.levels[None, :]
+    return np.linalg.solve(Z, e)[..., 0][:, part.dofs] * (1j * w[:, None]) ** part.levels[None, :]
 
 
 def receptance(model: Structure, parts: Sequence[Measured], p: np.ndarray | None) -> Lines:
     """The :class:`Lines` of ``parts``, the sampling defect removed at the
-    parameters ``p`` (None: the ``sinc`` approximation)."""
+    parameters ``p`` (None: the ``sinc`` approximation); a DOF without a
+    response channel gets ``h = 0`` and ``var = inf`` (no weight)."""
     out = []
     for part in parts:
         w = part.omega
@@ -192,8 +207,11 @@ def receptance(model: Structure, parts: Sequence[Measured], p: np.ndarray | None
                 H = H / (np.sinc(w * part.dt / (2 * np.pi)) * np.exp(-0.5j * w * part.dt))[:, None]
             else:
                 H = H - (sampled(model, p, part) - continuous(model, p, part))
-        h = H / (1j * w[:, None]) ** part.levels[None, :]
-        out.append(Lines(w, h, part.var, np.full(w.size, part.force), part.cluster))
+        h = np.zeros((w.size, model.n_dof), dtype=complex)
+        var = np.full((w.size, model.n_dof), np.inf)
+        h[:, part.dofs] = H / (1j * w[:, None]) ** part.levels[None, :]
+        var[:, part.dofs] = part.var
+        out.append(Lines(w, h, var, np.full(w.size, part.force), part.cluster))
     return Lines.join(out)
 
 

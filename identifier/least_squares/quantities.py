@@ -49,24 +49,38 @@ def response_channels(trace: Trace, model: Structure) -> list[Channel]:
     """One response channel per model DOF (n,), the lowest level measured there;
     raises naming the first DOF with none and the channels present, or a
     channel at no free DOF of the model (the model does not match)."""
+    gap = missing_message(trace, model)
+    if gap:
+        raise IdentificationError(f"{trace.path.name}: least squares in the time domain needs one of "
+                                  f"displacement/velocity/acceleration on every DOF of the model; {gap}",
+                                  field="channels")
+    best = present_channels(trace, model)
+    return [best[j] for j in range(model.n_dof)]
+
+
+def missing_message(trace: Trace, model: Structure) -> str:
+    """"DOF ... has none ...; missing channel(s) ...; present: ..." for the
+    first model DOF without a response channel; "" when every DOF has one."""
     have = {c.dof for q in QUANTITIES for c in trace.select(q)}
     missing = [d for d in model.dofs if d not in have]
-    if missing:
-        names = [c.name for c in sorted(trace.channels.values(), key=lambda c: (c.quantity, c.node, c.direction))]
-        present = (", ".join(names[:12]) + (f" and {len(names) - 12} more" if len(names) > 12 else "")) or "none"
-        wanted = ", ".join(f"acceleration_{n}_{d}" for n, d in missing[:6]) + (", ..." if len(missing) > 6 else "")
-        raise IdentificationError(
-            f"{trace.path.name}: least squares needs one of displacement/velocity/acceleration on every DOF "
-            f"of the model; DOF {missing[0]} has none"
-            + (f" (nor {len(missing) - 1} more)" if len(missing) > 1 else "")
-            + f"; missing channel(s) {wanted} (or the displacement or velocity of the same DOF); "
-            f"present: {present}",
-            field="channels")
+    if not missing:
+        return ""
+    names = [c.name for c in sorted(trace.channels.values(), key=lambda c: (c.quantity, c.node, c.direction))]
+    present = (", ".join(names[:12]) + (f" and {len(names) - 12} more" if len(names) > 12 else "")) or "none"
+    wanted = ", ".join(f"acceleration_{n}_{d}" for n, d in missing[:6]) + (", ..." if len(missing) > 6 else "")
+    return (f"DOF {missing[0]} has none" + (f" (nor {len(missing) - 1} more)" if len(missing) > 1 else "")
+            + f"; missing channel(s) {wanted} (or the displacement or velocity of the same DOF); present: {present}")
+
+
+def present_channels(trace: Trace, model: Structure) -> dict[int, Channel]:
+    """DOF index -> the lowest-level response channel measured there, for the
+    DOF that have one (unmeasured DOF absent); raises for a channel at no
+    free DOF of the model."""
     best: dict[int, Channel] = {}
     for q in QUANTITIES[::-1]:
         for c in trace.select(q):
-            best[_dof(trace, c, model)] = c  # raises for a channel at no free DOF of the model
-    return [best[j] for j in range(model.n_dof)]
+            best[_dof(trace, c, model)] = c
+    return best
 
 
 def record_band(trace: Trace, model: Structure) -> float:
