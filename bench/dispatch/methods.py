@@ -69,7 +69,8 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
            {"estimator": least_squares.ESTIMATORS, "integration": least_squares.INTEGRATIONS,
             "weighting": least_squares.WEIGHTINGS, "domain": least_squares.DOMAINS},
            channels="the force at every forced DOF and one of displacement, velocity or acceleration at every "
-                    "DOF of the model (any mix); any excitation"),
+                    "DOF of the model (any mix; any excitation), or at some DOF only from a broadband test "
+                    "(random, impulse, several stepped-sine lines: unmeasured DOF condensed, frequency domain)"),
     Method("perturbation", perturbation.identify,
            {"max_iterations": 20, "tol": 1e-8, "natural_frequencies": False},
            "chapter 4: iterative frequency-domain perturbation from a postulated model", postulated=True,
