@@ -81,6 +81,7 @@ docs/modal-method.md says why.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -250,6 +251,11 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _plain(value: object) -> object:
+    """JSON form of numpy scalars and arrays in a row."""
+    return value.tolist() if isinstance(value, (np.ndarray, np.generic)) else str(value)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--structure", choices=("beam", "frame"), default="beam")
@@ -258,11 +264,23 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--uncertainty", choices=("jackknife", "off"), default="jackknife",
                     help="the modal method's option (off: about half the time, no standard errors)")
+    ap.add_argument("--save", type=Path, help="append each case's row to this JSON-lines file as it ends")
+    ap.add_argument("--summarise", type=Path, nargs="+", metavar="FILE",
+                    help="print the summary of rows saved by --save (runs nothing)")
     args = ap.parse_args(argv)
+    if args.summarise:
+        rows = [json.loads(line) for f in args.summarise for line in f.read_text().splitlines() if line.strip()]
+        seeds = sorted(r["seed"] for r in rows)
+        print(f"{len(rows)} saved rows, seeds {seeds[0]}-{seeds[-1]}" if rows else "no rows")
+        print(summary(rows))
+        return
     rows = []
     for seed in range(args.first, args.first + args.seeds):
         row = run(args.structure, seed, args.uncertainty)
         rows.append(row)
+        if args.save:
+            with args.save.open("a") as fh:
+                fh.write(json.dumps(row, default=_plain) + "\n")
         if args.verbose:
             d = row["disturbed"]
             truth = [(round(t["omega"], 3), round(t["ratio"], 2), t["on_mode"] is not None) for t in row["harmonics"]]

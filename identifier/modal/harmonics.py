@@ -44,7 +44,8 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
 - ``z >= SURE``: a harmonic (``kurtosis``), subtracted before SSI so that it takes no model order
   and biases no mode near it (the weaker ones are not: a mode's own random peak would be notched);
 - near-zero damping, relative to what the record resolves: ``D < STILL`` (the support tests'
-  ``MIN_DECAYS``; zeta's short-record bias is ``1 / (omega T)``, one decay time,
+  ``MIN_DECAYS``; zeta's short-record bias is ``1 / (omega T)``, one decay time; here ``D`` counts
+  the signed median damping, so that a pole that grows at half its orders is still,
   :mod:`identifier.modal.support`), or ``|zeta| < ZETA_FLOOR``, the least damping the support tests
   count. At a sure line, a doubtful one of ``z >= LIKELY``, or else of band kurtosis ``z >= SURE``
   over up to ``BLOCKS[1]`` lines of the cleaned records: a harmonic (``kurtosis+damping``), dropped
@@ -52,11 +53,19 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
   (``damping``; the support tests would count it damped at the floor and report it); the other ``D
   < STILL`` are left to the support tests, which reject them (no damping determined, no harmonic shown);
 - a damped SSI mode whose peak is a line's (``line``, :func:`_pole_line`): the strongest line within
-  ``max(h, 2)`` lines of it stands ``CONC`` times above what a mode of half-width ``h`` gives (``P_j``
-  over the median of the lines 4 to ``max(h, 8)`` from it, times the median of ``1 / (1 + (d /
-  h)^2)`` there; a periodogram scatters exponentially about its mean, so a mode's line exceeds that
-  about once in 1e4 lines), and, when ``h >= H_MIN``, its band does not rise ``RISE`` times over the
-  lines 2 to 4 half-widths away (a broad mode with a harmonic on it rises);
+  ``r = max(h, 2)`` lines of it stands ``conc(r)`` times above what a mode of half-width ``h`` gives
+  (``P_j`` over the median of the lines 4 to ``max(h, 8)`` from it, times the median of ``1 / (1 +
+  (d / h)^2)`` there; a periodogram scatters exponentially about its mean, so that a mode's band of
+  ``2 r + 1`` lines holds such a line with probability under ``LINE_P``: ``conc(r) = max(CONC,
+  log2((2 r + 1) / LINE_P))``), when ``h >= H_MIN`` its band does not rise ``RISE`` times over the
+  lines 2 to 4 half-widths away (a broad mode with a harmonic on it rises), and one sinusoid holds
+  more of the pole's peak than a mode's random response of ``D`` decay times would (the coherent
+  share, :func:`identifier.modal.harmonics_poles.coherent_share`: over ``share_bound(D) = 1 -
+  SHARE_P^(1 / sqrt(D))``, as a mode's exceeds with probability about ``SHARE_P``);
+- a narrow damped SSI mode (``h < H_MIN``) at a line standing ``LINE`` times over its neighbours'
+  median that one sinusoid holds over ``share_bound(D)`` of (``coherent``): a weak harmonic that SSI
+  fitted with a pole of a few decay times (its kurtosis is a random response's when the band holds
+  more random power than the harmonic);
 - any other candidate of ``z >= LIKELY`` that no narrow damped SSI mode explains (none within
   ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` plus 1.5 lines whose bandwidth ``2 h`` is under
   ``WINDOW`` lines: the running median does not follow so narrow a peak, whose random spikes are
@@ -69,9 +78,12 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
 
 Fails (misses the harmonic) when its line does not stand ``LINE`` times above the random response
 near it or the band the record allows holds as much random power as the harmonic (weak, on a mode's
-peak); it is then reported as a mode when SSI fits it a pole of ``STILL`` to about ``2 pi H_MIN``
-decay times and damping over ``ZETA_FLOOR`` (a peak of 0.3 to 4 lines, as such a mode gives), or a
-broader pole whose line stands under ``CONC`` times a mode's peak. Takes for a harmonic a random
+peak); it is then reported as a mode when SSI fits it a pole of ``STILL`` to about 10 decay times
+whose peak the random background shares (``share_bound`` nears 1 as ``D`` falls to ``STILL``: 0.98
+at 3 decay times, 0.89 at 10), a broader pole whose line stands under ``conc(r)`` times a mode's peak, or a pole
+beside the line that holds no peak of it (a misplaced pole; no test looks there). A mode of ``D``
+decay times is taken for a harmonic with probability about ``SHARE_P`` when a line stands in its
+band (the coherent share's law, Monte Carlo, docs/modal-method.md). Takes for a harmonic a random
 peak whose kurtosis falls ``LIKELY`` standard errors under 3 by chance away from every narrow damped
 SSI mode (about one such peak in ten), and a mode of under ``STILL`` decay times or damping under
 ``ZETA_FLOOR`` with a low kurtosis (the record cannot tell it from a sinusoid). Drifting frequencies
@@ -88,6 +100,7 @@ import numpy as np
 from .harmonics_lines import (BLOCKS, CONC, DOUBTFUL, H_MIN, LIKELY, LINE, MAX_LINES, RISE, SKIRT, STILL,  # noqa: F401
                               SURE, WINDOW, Line, _spectrum, background, band_lines, detect, fit, kurtosis, measure,
                               subtract)
+from .harmonics_poles import _pole_line, coherent_share, conc, share_bound  # noqa: F401
 from .support import ZETA_FLOOR
 
 
@@ -123,31 +136,6 @@ def screen(records: list[np.ndarray], dt: float) -> Screened:
     return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
 
 
-def _pole_line(P: np.ndarray, omega: float, zeta: float, bin_w: float) -> tuple[int, float, float]:
-    """For a pole (``omega`` rad/s, ``|zeta|``) of half-width ``h = zeta
-    omega / bin_w`` lines: the strongest line ``j`` of ``P`` within ``max(h,
-    2)`` lines, its excess over a mode's peak and the band's rise over its
-    surroundings (infinite when ``h < H_MIN``: too few lines to tell);
-    module docstring."""
-    h = zeta * omega / bin_w
-    j0, r = int(round(omega / bin_w)), int(np.ceil(max(h, 2.0)))
-    wide = max(r, 8)
-    lo, hi = max(j0 - r, wide), min(j0 + r, P.size - wide - 1)
-    if hi < lo:
-        return -1, 0.0, float("inf")
-    j = lo + int(np.argmax(P[lo:hi + 1]))
-    d = np.r_[-wide:-3, 4:wide + 1]
-    shape = 1.0 / (1.0 + (d / max(h, 1e-3))**2)
-    excess = float(P[j] / max(np.median(P[j + d]), 1e-300) * np.median(shape))
-    if h < H_MIN or j0 - 4 * r < 0 or j0 + 4 * r >= P.size:
-        return j, excess, float("inf")
-    inner = np.r_[j0 - r:max(j - 3, j0 - r), min(j + 4, j0 + r + 1):j0 + r + 1]
-    outer = np.r_[j0 - 4 * r:j0 - 2 * r, j0 + 2 * r + 1:j0 + 4 * r + 1]
-    if inner.size == 0:
-        return j, excess, float("inf")
-    return j, excess, float(np.median(P[inner]) / max(np.median(P[outer]), 1e-300))
-
-
 def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray
             ) -> tuple[np.ndarray, list[Line]]:
     """Which SSI modes (``omega`` (k,) rad/s, ``zeta_abs`` the median
@@ -167,7 +155,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
     X = P = bg = None
     for i in range(omega.size):
         close = max(tol, 1e-3 * omega[i])
-        still = zeta_abs[i] * omega[i] * total < STILL
+        still = max(zeta[i], 0.0) * omega[i] * total < STILL  # signed: poles that grow at half the orders
         if still or zeta_abs[i] < ZETA_FLOOR:
             near = [ln for ln in found if abs(ln.omega - omega[i]) <= close]
             if near:
@@ -195,8 +183,18 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                 X = _spectrum(y)
                 P = np.sum(np.abs(X)**2, axis=0)
                 bg = background(P)
-            j, excess, rise = _pole_line(P, float(omega[i]), float(zeta_abs[i]), bin_w)
-            if excess < CONC or (np.isfinite(rise) and rise >= RISE):
+            w, h = float(omega[i]), float(zeta_abs[i] * omega[i] / bin_w)
+            j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
+            rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
+            line_like = excess >= conc(int(np.ceil(max(h, 2.0)))) and not rises
+            if not (line_like or h < H_MIN):
+                continue
+            share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
+            sinusoid = share >= share_bound(2 * np.pi * h)  # NaN: no peak
+            test = "line" if line_like and sinusoid else ""
+            if not test and h < H_MIN and ratio >= LINE and sinusoid:
+                test, j = "coherent", k
+            if not test:
                 continue
             drop[i] = True
             line = next((ln for ln in found + doubtful if abs(ln.omega - j * bin_w) <= tol), None)
@@ -206,7 +204,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                 line = measure(y, dt, X, P, bg, j) or Line(j * bin_w, fit(y, j * bin_w, t), float("nan"),
                                                            float(P[j] / max(bg[j], 1e-300)), 0)
             if all(line is not f for f in found):
-                found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks, "line",
+                found.append(Line(line.omega, line.amplitude, line.kurtosis, line.ratio, line.blocks, test,
                                   float(zeta[i])))
     narrow = ~drop & (np.abs(zeta) * omega * length / np.pi < WINDOW)
     reach = SKIRT * np.abs(zeta[narrow]) * omega[narrow] + 1.5 * tol

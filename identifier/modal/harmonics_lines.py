@@ -57,9 +57,10 @@ class Line:
                 "zeta": self.zeta, "test": self.test, "on_mode": self.on_mode}
 
 
-def _spectrum(y: np.ndarray) -> np.ndarray:
-    """Hann-windowed transforms (m, n // 2 + 1) of the RMS-scaled channels."""
-    rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
+def _spectrum(y: np.ndarray, rms: np.ndarray | None = None) -> np.ndarray:
+    """Hann-windowed transforms (m, n // 2 + 1) of the channels of ``y`` (m, n) scaled by ``rms`` (m, 1)
+    (default: their own RMS)."""
+    rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True)) if rms is None else rms
     return np.fft.rfft(y / np.where(rms > 0, rms, 1.0) * np.hanning(y.shape[1]), axis=1)
 
 
