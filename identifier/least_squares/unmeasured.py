@@ -19,19 +19,25 @@ output-error fit of :mod:`identifier.least_squares.frequency_output`.
 
 Start, from the data and the topology only (no prior value): the model's
 unknown values are only a shape (a topology's 1.0 for every element of a
-kind, or a prior); one factor per kind (mass, damping, stiffness) is fitted
-first, then every parameter, by the linear pseudo-parameter iteration: at
-``p_k`` the unmeasured responses are expanded, ``h_u = Z_uu^-1 (e_u - Z_us
-h_s)`` (the u rows of the equations hold), and ``p_(k+1)`` solves the
-equations of motion, linear in ``p`` for the completed ``h``, whitened by
-``W_b = diag(V_s)^(-1/2) [Z(p_k)^-1]_(s, :)``. ``W_b Z(p_k)_(:, u) = 0``: the
-whitened equation error does not depend on ``h_u`` at ``p_k``, and at a
-fixed point it equals the output error (``W_b (Z h - e_f) = (h_s -
-Hh_s e_f) / sqrt(V_s)``); the equations stay linear. :data:`PSEUDO_PASSES`
-passes at most (until no parameter moves by 1 %), from the best of
-:data:`STARTS` kind-factor starts, then Gauss-Newton on ``J`` with
-Levenberg-Marquardt steps (exact Jacobian ``d h_s / d p_j = -[Z^-1 Z_j Z^-1
-e_f]_s``).
+kind, or a prior). The linear pseudo-parameter iteration: at ``p_k`` the
+unmeasured responses are expanded, ``h_u = Z_uu^-1 (e_u - Z_us h_s)`` (the u
+rows of the equations hold), and ``p_(k+1)`` solves the equations of
+motion, linear in ``p`` for the completed ``h``, whitened by ``W_b =
+diag(V_s)^(-1/2) [Z(p_k)^-1]_(s, :)``. ``W_b Z(p_k)_(:, u) = 0``: the whitened
+equation error does not depend on ``h_u`` at ``p_k``, and at a fixed point
+it equals the output error (``W_b (Z h - e_f) = (h_s - Hh_s e_f) /
+sqrt(V_s)``); the equations stay linear. Far from the answer that
+whitening (the model's resonances in the wrong places) makes plain passes
+wander, so each pass is taken in a trust region (a Levenberg-Marquardt
+weight toward ``p_k``, accepted when the output error falls). First one
+factor per kind (mass, damping, stiffness) on the lowest lines, then every
+parameter on bands widened from there to all lines (a continuation: the
+lowest modes fix the coarse distribution before the higher ones are
+fitted; from the whole band at once the chapter 3 beam's start stopped in
+local minima), from :data:`STARTS` stiffness-to-mass ratios and
+:data:`FIRST_BANDS` first bands; the start of smallest output error is
+kept. Then Gauss-Newton on ``J`` with Levenberg-Marquardt steps (exact
+Jacobian ``d h_s / d p_j = -[Z^-1 Z_j Z^-1 e_f]_s``).
 
 Identifiability (the measured set may not determine every parameter): the
 Gauss-Newton matrix ``A = Re(J^H J)`` at the estimate, column-scaled, has
@@ -152,18 +158,17 @@ def _solve_theta(G: np.ndarray) -> np.ndarray | None:
         return None
 
 
-def _kind_map(model: Structure, base: np.ndarray, group: np.ndarray | None = None) -> tuple[np.ndarray, list]:
-    """``T`` (n_columns, factors + 1): one factor per unknown kind (and element
-    ``group`` label, (n_elements,), None: one group) times ``base``, the known
-    parameters and the force column fixed (last column)."""
+def _kind_map(model: Structure, base: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """``T`` (n_columns, kinds + 1): one factor per unknown kind times ``base``,
+    the known parameters and the force column fixed (last column)."""
     mask = model.kind_mask()
-    keys = [(q.kind, 0 if group is None else int(group[q.element])) for q in model.parameters]
-    groups = sorted({k for k, u in zip(keys, mask) if u})
-    T = np.zeros((len(keys) + 1, len(groups) + 1))
-    for j, (k, u) in enumerate(zip(keys, mask)):
+    kinds = [q.kind for q in model.parameters]
+    groups = sorted({k for k, u in zip(kinds, mask) if u})
+    T = np.zeros((len(kinds) + 1, len(groups) + 1))
+    for j, (k, u) in enumerate(zip(kinds, mask)):
         T[j, groups.index(k) if u else -1] = base[j] if u else -base[j]
     T[-1, -1] = 1.0
-    return T, [k for k, _ in groups]
+    return T, groups
 
 
 def _unknown_map(model: Structure, p: np.ndarray) -> np.ndarray:
