@@ -48,8 +48,8 @@ constant, how it is taken out, when it is confounded with the motion;
 ``details["offsets"]``). Needs the
 structure at rest at the first sample, ``lam dt`` small (the band well
 below Nyquist; else :class:`IdentificationError`), and a response channel
-on every DOF of the model (else an error naming the DOF and the channels
-present). The acceleration path (every DOF with an acceleration channel)
+on every DOF of the model (else the unmeasured-DOF path below; with
+``domain="time"`` an error naming the DOF and the channels present). The acceleration path (every DOF with an acceleration channel)
 assumes zero-mean noise: no offsets there.
 
 Domain (option ``domain``, issue 22). ``time``: the estimators above.
@@ -80,6 +80,15 @@ stepped-sine lines: a single harmonic line leaves the parameters
 unidentifiable) and a linear, stationary response: FRFs of lightly damped
 or undamped structures leak, which biases damping up and, for the undamped
 chapter 3 beam, every parameter (benchmarks/least_squares_frequency.py).
+
+Unmeasured DOF (a DOF of the model without any response channel, in
+``auto`` or ``frequency``): the output error at the measured DOF on FRFs,
+the unmeasured DOF condensed (eliminated per line for given parameters),
+started from the topology alone; parameters the measured set does not
+determine are reported with value NaN and no standard error
+(:mod:`identifier.least_squares.unmeasured`, :mod:`.unmeasured_data`;
+``details["unmeasured_dofs"]``, ``details["undetermined"]``). A refusal of
+that path names the DOF without a sensor, the channels present and why.
 
 Rank deficiency (e.g. only rigid-body motion excited, eq. 3.15 discussion)
 raises :class:`IdentificationError` naming the parameters that are not
