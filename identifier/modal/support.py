@@ -41,11 +41,20 @@ Temporal coherence (:mod:`identifier.modal`) is tested before these and its
 failures are listed with them. A mode stable at under ``MIN_STABLE`` of the model orders
 (:mod:`identifier.modal.stabilisation` asks ``min_fraction`` of every
 candidate) is reported only when the record pins it down,
-``omega_std < LOOSE omega``: the structure's poles recur at every order
-past its own, and a weak true mode that does not (the spatially aliased
-modes of a beam on few sensors in a long record: a third of the orders)
-is precise, while poles fitted to the noise of a short or noisy record
-come and go and scatter.
+
+    omega_std < max(LOOSE, BANDWIDTH zeta) omega:
+
+the structure's poles recur at every order past its own, and a weak true
+mode that does not (the spatially aliased modes of a beam on few sensors
+in a long record: a third of the orders) is precise, while poles fitted
+to the noise of a short or noisy record come and go and scatter. Precise
+is relative to the mode's own half-power bandwidth ``2 zeta omega``: a
+true mode seen over ``N = zeta omega T`` decay times of a random response
+has ``omega_std / (zeta omega) ~ 1 / sqrt(N)`` (the random error) plus
+``1 / N`` (the short-record bias), under ``BANDWIDTH`` from about 5 decay
+times on, so a heavily damped true mode is as well pinned down within its
+bandwidth as a lightly damped one though far less in absolute terms; a
+noise pole scatters over more than its own bandwidth.
 
 Short-record bias. In a stationary random response of ``T`` seconds the
 covariance estimates ``R_l`` of a mode of decay rate ``sigma = zeta omega``
@@ -87,6 +96,7 @@ MIN_DECAYS = 2.0  # least decay times 1 / (zeta omega) of a mode in a stationary
 ZETA_FLOOR = 1e-4  # damping ratio at least this when counting decay times
 MIN_STABLE = 0.5  # share of the model orders below which a mode must be precise ...
 LOOSE = 0.005  # ... omega_std < LOOSE omega
+BANDWIDTH = 0.5  # ... or omega_std < BANDWIDTH zeta omega (a share of its half-power bandwidth)
 MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
@@ -151,9 +161,10 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             reasons[i] = "no finite standard error"
         elif errors and omega_std[i] > MAX_RELATIVE * omega[i]:
             reasons[i] = f"omega_std {omega_std[i] / omega[i]:.2g} x omega (over {MAX_RELATIVE:g})"
-        elif errors and stable[i] < MIN_STABLE and omega_std[i] >= LOOSE * omega[i]:
+        elif errors and stable[i] < MIN_STABLE and omega_std[i] >= max(LOOSE, BANDWIDTH * abs(zeta[i])) * omega[i]:
             reasons[i] = (f"stable at {stable[i]:.0%} of the model orders (under {MIN_STABLE:.0%}) with "
-                          f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g})")
+                          f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
+                          f"{BANDWIDTH:g} zeta)")
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = mac(shapes, shapes) > DUPLICATE_MAC
