@@ -27,11 +27,16 @@ machine at load about 20, so CPU per identification is the speed figure):
 
     ch3-damped-beam, transverse velocity only: normalized RMS median 0.02883 (p10 0.02495, p90 0.03157);
         95 % coverage 1.000 over 900 intervals; undetermined 0; CPU median 3.0 s (max 3.8 s)
+    ch3-damped-beam, transverse acceleration only: normalized RMS median 0.00986 (p10 0.00848, p90 0.01186);
+        95 % coverage 0.984 over 900 intervals; undetermined 0; CPU median 4.6 s (max 5.0 s)
 
 (with every DOF measured the same records give 0.0080 per repetition,
 benchmarks/least_squares_frequency.py). Tuning repetitions 0-4: velocity
 median 0.0296; accelerations (0-1) 0.0094; displacements (0-4) fail: a
-dozen coherent lines (rigid-body drift buries the flexible response).
+dozen coherent lines (rigid-body drift buries the flexible response). The
+velocity intervals are too wide: on repetition 0 the RMS of error /
+standard error is 0.26 (the cost per degree of freedom 0.87, so the line
+variances match the residuals; not resolved).
 """
 from __future__ import annotations
 
