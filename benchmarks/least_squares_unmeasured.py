@@ -35,8 +35,12 @@ benchmarks/least_squares_frequency.py). Tuning repetitions 0-4: velocity
 median 0.0296; accelerations (0-1) 0.0094; displacements (0-4) fail: a
 dozen coherent lines (rigid-body drift buries the flexible response). The
 velocity intervals are too wide: on repetition 0 the RMS of error /
-standard error is 0.26 (the cost per degree of freedom 0.87, so the line
-variances match the residuals; not resolved).
+standard error is 0.26. Its 195 coherent lines make 26 clusters of 8 for 45
+unknowns, so the sandwich's small-sample factor n_c / (n_c - n_u) is
+clipped at 26 (a 5x wider interval); the model-based errors alone (cost per
+degree of freedom 0.87) give an RMS of 2.79 there, 1.89 from accelerations
+(82 clusters): too narrow. Not resolved (bias from leakage and the line
+correlation are candidates).
 """
 from __future__ import annotations
 
