@@ -49,8 +49,9 @@ constant, how it is taken out, when it is confounded with the motion;
 structure at rest at the first sample, ``lam dt`` small (the band well
 below Nyquist; else :class:`IdentificationError`), and a response channel
 on every DOF of the model (else the unmeasured-DOF path below; with
-``domain="time"`` an error naming the DOF and the channels present). The acceleration path (every DOF with an acceleration channel)
-assumes zero-mean noise: no offsets there.
+``domain="time"`` an error naming the DOF and the channels present). The
+acceleration path (every DOF with an acceleration channel) assumes
+zero-mean noise: no offsets there.
 
 Domain (option ``domain``, issue 22). ``time``: the estimators above.
 ``frequency``: the equations of motion on FRFs, ``(K - omega^2 M + i omega

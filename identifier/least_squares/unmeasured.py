@@ -343,7 +343,8 @@ def fit(eq: Equations, lines: Lines, p0: np.ndarray,
         sandwich = np.sqrt(np.sum(z**2, axis=1) * n_c / max(1, n_c - ok.size))
         classical = np.sqrt(np.diag(la.inv(Ao)) * c / dof)
         std[ok] = np.maximum(sandwich, classical)
-    info = {"output_error_steps": steps, "output_error_cost": c / dof, "rank": int(np.sum(vals > RANK_TOL * vals.max())),
+    info = {"output_error_steps": steps, "output_error_cost": c / dof,
+            "rank": int(np.sum(vals > RANK_TOL * vals.max())),
             "undetermined_combinations": [
                 {lab: round(float(x), 3) for lab, x in sorted(zip(labels, v), key=lambda t: -abs(t[1]))[:4]}
                 for v in null.T]}
