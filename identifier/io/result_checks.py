@@ -13,7 +13,7 @@ SENSOR = re.compile(r"^[a-z]+_\d+_\S+$")
 PARAMETER_KEYS = {"label", "kind", "unit", "value", "std_error", "initial"}
 RUN_KEYS = {"method", "structure", "repetition", "tests", "status", "message", "parameters", "iterations",
             "history", "misfit_history", "omega", "eigenvalues", "mode_shapes", "sensors", "details",
-            "damping", "omega_std", "damping_std", "mpc", "mode_shapes_complex"}
+            "damping", "omega_std", "damping_std", "mpc", "mode_shapes_complex", "mode_shapes_std"}
 
 
 def _parameters(run: Doc) -> list[str]:
@@ -42,8 +42,9 @@ def _run(run: Doc) -> tuple[list[str], bool]:
     for s in sensors.items():
         if not SENSOR.match(s.string()):
             raise s.error(f"{s.value!r} is not a channel name <quantity>_<node>_<direction>")
-    for shape in run.key("mode_shapes", []).items():
-        shape.numbers(len(sensors.value))
+    for key in ("mode_shapes", "mode_shapes_std"):  # one list per mode over the sensors (NaN allowed)
+        for shape in run.key(key, []).items():
+            shape.numbers(len(sensors.value))
     modes = len(run.key("omega", []).value)
     for key in ("damping", "omega_std", "damping_std", "mpc"):  # modal methods: one per mode, NaN allowed
         values = run.key(key, [])

@@ -46,7 +46,9 @@ class Identification:
     mode over ``sensors``). The modal method also fills ``damping`` (damping
     ratios), ``omega_std`` (rad/s) and ``damping_std`` (standard errors, NaN
     where not estimated), ``mpc`` (modal phase collinearity, 1 = real mode)
-    and ``mode_shapes_complex`` (per mode, per sensor ``[re, im]``, unit norm).
+    and ``mode_shapes_complex`` (per mode, per sensor ``[re, im]``, unit norm),
+    ``mode_shapes_std`` (per mode over ``sensors``: standard errors of the
+    ``mode_shapes`` entries, their scale fitted; NaN where not estimated).
     ``details`` holds method-specific diagnostics.
     """
 
@@ -69,6 +71,7 @@ class Identification:
     damping_std: list[float] = field(default_factory=list)
     mpc: list[float] = field(default_factory=list)
     mode_shapes_complex: list[list[list[float]]] = field(default_factory=list)
+    mode_shapes_std: list[list[float]] = field(default_factory=list)
     details: dict[str, Any] = field(default_factory=dict)
 
     def values(self) -> np.ndarray:

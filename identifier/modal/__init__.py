@@ -51,7 +51,9 @@ Steps (each its own module):
    when the record carries it (its periods and, in a stationary record, its
    decay times in the record; stable at half the model orders, or
    precise; found again by all jackknife replicates but one; finite standard errors;
-   not a duplicate the record does not resolve). The others, and the
+   not a duplicate the record does not resolve; in a free response, above
+   the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`).
+   The others, and the
    candidates of step 3 below ``COHERENCE``, are listed in
    ``details["rejected"]`` with their reason; ``details["warnings"]`` says
    when a stationary record is under two periods of its lowest frequency.
@@ -80,7 +82,7 @@ from structbench.models import Model
 from structbench.models.channels import QUANTITIES as RESPONSES
 
 from ..errors import IdentificationError
-from .uncertainty import Replicates, jackknife
+from .uncertainty import Replicates, carried, jackknife
 from .close_pairs import FREE_KINDS, split_free_decays
 from ..io.results import Identification
 from .runtime import one_blas_thread, tune_from_environment
@@ -91,14 +93,15 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, with_bias
 from . import harmonics as periodic
-from . import input_output
+from . import decay_snr, input_output
 from .support import rejected as support_rejected
 from .refine import refine_poles
+from .free_shapes import free_decay_shapes
 from ..io.traces import Channel, Trace
 
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
 UNCERTAINTY = ("jackknife", "off")
-COHERENCE = 0.5  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
+COHERENCE = 0.6  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
 COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there
 STEADY = 0.8  # ... unless it is stable at this share of the orders or more
 
@@ -227,9 +230,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         fits = [fit[md.order, md.index] for md in modes]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
             else np.zeros((m, 0), complex)
-        omega_se, zeta_se, missed = jackknife(replicates, by_order,
-                                              list(zip(_spread(modes), [md.omega for md in modes]))) \
-            if replicates else (np.full(len(modes), np.nan), np.full(len(modes), np.nan), np.zeros(len(modes)))
+        omega_se, zeta_se, missed, shape_se = jackknife(replicates, by_order,
+                                                        list(zip(_spread(modes), [md.omega for md in modes]))) \
+            if replicates else (np.full(len(modes), np.nan), np.full(len(modes), np.nan), np.zeros(len(modes)),
+                                np.full((m, len(modes)), np.nan))
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
     length = (max if free else sum)(y.shape[1] for y in records) * dt  # s: see support.record_bias
@@ -239,12 +243,14 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
                     errors=replicates is not None)
+    if free:  # each mode above the sensor noise of the free response
+        verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)
     dropped = support_rejected(omega, zeta, verdict)
     rejected = incoherent + dropped
     kept = verdict.keep
     modes, shapes, omega_se, zeta_se = [md for md, k in zip(modes, kept) if k], shapes[:, kept], \
         omega_se[kept], zeta_se[kept]
-    fits = [c for c, k in zip(fits, kept) if k]
+    fits, shape_se = [c for c, k in zip(fits, kept) if k], shape_se[:, kept]
     split = split_free_decays(traces, records, dt, omega[kept], zeta[kept], shapes, omega_se, zeta_se, refine)
     finite = np.isfinite(split.omega_std) & np.isfinite(split.zeta_std) | (replicates is None)
     rejected += [{"omega": float(w), "zeta": float(z), "reason": "no finite standard error (close-pair fit)"}
@@ -252,9 +258,12 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     omega, zeta, omega_se, zeta_se = split.omega[finite], split.zeta[finite], split.omega_std[finite], \
         split.zeta_std[finite]
     shapes, refined, source = split.shapes[:, finite], split.refined[finite], split.source[finite]
+    shape_se = carried(shape_se, source, refined)  # a shape from the close-pair fit: NaN
     ml = refine_poles(traces, records, dt, omega, zeta, omega_se, zeta_se, refined,
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
+    shapes, shape_se = free_decay_shapes(traces, records, dt, omega, zeta, ml.applied, shapes,
+                                         shape_se if replicates else None)  # refined modes: LS shapes
     periodic.on_modes(found, omega, zeta)
     modes = [modes[i] if i >= 0 else None for i in source]  # -1: found by the free-decay fit
     fits = [fits[i] if i >= 0 else None for i in source]
@@ -262,6 +271,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         method="modal", structure=model.name if model is not None else traces[0].structure,
         repetition=traces[0].repetition, tests=[t.test for t in traces],
         omega=omega.tolist(), eigenvalues=(omega**2).tolist(), mode_shapes=real_shapes(shapes).T.tolist(),
+        mode_shapes_std=shape_se.T.tolist(),
         sensors=[c.name for c in channels],
         damping=zeta.tolist(), omega_std=omega_se.tolist(), damping_std=zeta_se.tolist(),
         mpc=mpc(shapes).tolist(),

@@ -49,6 +49,23 @@ mode that has died out within the first block of samples is seen by one
 group only. A mode whose correlation time exceeds the stationary segments (the
 damped beam's first mode, 507 s, in 450 s segments) gets errors somewhat
 too small.
+
+Mode shapes (:func:`shape_deltas`). A replicate's shape of a pole,
+``z_g`` (the first-order shape above, in the channels' units), is scaled
+to the full data's ``z`` of the same pole by complex least squares,
+``c_g = z_g^H z / z_g^H z_g``, and expressed in the reported normalisation
+(:func:`identifier.modal.ssi.poles.real_shapes`: the full shape turned by
+its principal angle ``theta``, real part, divided by its largest entry
+``peak``):
+
+    d_g = Re((c_g z_g - z) e^(-i theta)) / peak      (m,)
+
+per entry, the median over the mode's poles like omega, then the same
+jackknife formula entry by entry: the standard error of each entry of the
+reported shape with its scale fitted (an error along the shape itself, a
+change of scale, is left out: updating profiles the scale out, and the
+largest entry's error is not zero). Only where the Hankel's row channels
+are the channels (at most ``ROW_CHANNELS`` sensors); NaN otherwise.
 """
 from __future__ import annotations
 
@@ -69,7 +86,7 @@ Target = tuple[tuple[tuple[int, int], ...], float]  # the mode's stable poles (o
 
 
 def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np.ndarray, dt: float
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """omega, zeta and MAC to the full data's shape (G, t) of the poles
     ``picks`` (indices into ``poles.omega``) of one order in every replicate
     (``space``: stacked Gram, shift, ``U^T Q`` and first block rows of the
@@ -78,7 +95,8 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     mixes strongly with another of Im > 0 (``|W_ik| > 0.3 |mu_k - mu_i|``: a
     pair closer than the perturbation) is followed instead through the
     eigenvectors of that small group, ``diag(mu_b) + W_bb``: the one with the
-    best MAC is the replicate's pole."""
+    best MAC is the replicate's pole. Also the replicates' shapes (G, rows,
+    t) and the full data's (rows, t), complex, in the row channels."""
     gram, shift, align, top = space
     n, rows = poles.order, top.shape[1]
     cols = poles.index[picks]
@@ -95,7 +113,8 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
     mix = W / gap
     base = top[:, :, :n] @ np.linalg.solve(T, poles.vectors)  # (G, rows, n): replicate shapes of every psi_i
     shape = U[:rows, :n] @ psi
-    mac = paired_mac(shape, base[:, :, cols] + base @ mix)
+    moved = base[:, :, cols] + base @ mix
+    mac = paired_mac(shape, moved)
     strong = (np.abs(mix) > 0.3) & (poles.mu.imag > 0)[None, :, None]
     for g, c in zip(*np.nonzero(strong.any(axis=1))):
         group = np.union1d(cols[c], np.flatnonzero(strong[g, :, c]))
@@ -103,8 +122,23 @@ def _moved(space: tuple[np.ndarray, ...], U: np.ndarray, poles: Poles, picks: np
         fits = paired_mac(shape[:, [c]], base[g][:, group] @ y)
         best = int(np.argmax(fits))
         mu[g, c], mac[g, c] = lam[best], fits[best]
+        moved[g, :, c] = (base[g][:, group] @ y)[:, best]
     s = np.log(mu) / dt
-    return np.abs(s), -s.real / np.abs(s), mac
+    return np.abs(s), -s.real / np.abs(s), mac, moved, shape
+
+
+def shape_deltas(full: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """``d_g`` (G, m, t) of the module docstring: the replicates' shapes
+    ``moved`` (G, m, t) scaled to the full data's ``full`` (m, t) (complex,
+    the channels' units) and expressed in the reported real normalisation."""
+    c = np.einsum("gmt,mt->gt", moved.conj(), full) / np.maximum(np.einsum("gmt,gmt->gt", moved.conj(), moved).real,
+                                                                  1e-300)
+    re, im = full.real, full.imag
+    theta = 0.5 * np.arctan2(2 * np.sum(re * im, 0), np.sum(re**2, 0) - np.sum(im**2, 0))
+    turn = np.exp(-1j * theta)
+    rotated = (full * turn).real
+    peak = rotated[np.argmax(np.abs(rotated), axis=0), np.arange(full.shape[1])]
+    return ((c[:, None, :] * moved - full) * turn).real / np.where(peak == 0, 1.0, peak)
 
 
 
@@ -123,6 +157,8 @@ class Replicates:
     def __init__(self, cov: Covariances, W: np.ndarray | None, full: BlockHankel, U: np.ndarray):
         """``full``: the full data's Hankel operator (its sizes; its FFT of ``U`` serves every replicate)."""
         self.U, self.dt, self.groups = U, cov.dt, cov.sums.shape[0]
+        self.channels = cov.scale.size
+        self.scale = cov.scale if W is None else None  # channel RMS; None: row channels are projections
         blocks = (full.rows, full.columns)
         rows = U.shape[0] // full.rows
         Uf = full.transform(U, full.rows)
@@ -149,29 +185,40 @@ class Replicates:
 
 
 def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Target]
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Standard errors (k,) of omega (rad/s) and zeta of the target modes
     (``poles``: the full data's poles by order) over the replicates that
-    found each (NaN when fewer than two did); and how many replicates
-    missed each mode (k,)."""
+    found each (NaN when fewer than two did); how many replicates missed
+    each mode (k,); and the standard errors (m, k) of the entries of each
+    mode's reported shape (module docstring; NaN where the row channels are
+    projections or fewer than two replicates found the mode)."""
     space, U, groups = replicates.space(), replicates.U, replicates.groups
+    scale, channels = replicates.scale, replicates.channels
     if not targets:
-        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int), np.zeros((channels, 0))
+    m = channels if scale is not None else 0
     found: list[list[list[tuple[float, float]]]] = [[[] for _ in targets] for _ in range(groups)]
+    deltas: list[list[list[np.ndarray]]] = [[[] for _ in targets] for _ in range(groups)]
     for n in sorted({n for members, _ in targets for n, _ in members}):
         which = [(k, j) for k, (members, _) in enumerate(targets) for order, j in members if order == n]
         try:
-            omega, zeta, mac = _moved(space, U, poles[n], np.array([j for _, j in which]), replicates.dt)
+            omega, zeta, mac, moved, full = _moved(space, U, poles[n], np.array([j for _, j in which]),
+                                                   replicates.dt)
         except np.linalg.LinAlgError:  # a replicate's subspace lost a direction of this order: nothing found
             continue
+        d = shape_deltas(full * scale[:, None], moved * scale[None, :, None]) if scale is not None else None
         w0 = np.array([targets[k][1] for k, _ in which])
         for g, c in zip(*np.nonzero((np.abs(omega - w0) < 0.05 * w0) & (mac > 0.8))):
             found[g][which[c][0]].append((omega[g, c], zeta[g, c]))
-    reps = np.full((groups, len(targets), 2), np.nan)
+            if d is not None:
+                deltas[g][which[c][0]].append(d[g, :, c])
+    reps = np.full((groups, len(targets), 2 + m), np.nan)
     for g in range(groups):
         for k, (members, _) in enumerate(targets):
             if found[g][k] and 2 * len(found[g][k]) >= len(members):
-                reps[g, k] = np.median(found[g][k], axis=0)
+                reps[g, k, :2] = np.median(found[g][k], axis=0)
+                if m:
+                    reps[g, k, 2:] = np.median(deltas[g][k], axis=0)
     found_by = np.isfinite(reps[:, :, :1])  # (G, k, 1)
     count = found_by.sum(axis=0)  # (k, 1): replicates that found each mode
     values = np.where(found_by, reps, 0.0)
@@ -179,4 +226,16 @@ def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Tar
     spread = np.sum(np.where(found_by, (values - mean) ** 2, 0.0), axis=0)
     widen = student_t.ppf(0.975, np.maximum(count - 1, 1)) / student_t.ppf(0.975, np.inf)
     se = np.where(count >= 2, widen * np.sqrt((count - 1) / np.maximum(count, 1) * spread), np.nan)
-    return se[:, 0], se[:, 1], groups - count[:, 0]
+    shape_se = se[:, 2:].T if m else np.full((channels, len(targets)), np.nan)
+    return se[:, 0], se[:, 1], groups - count[:, 0], shape_se
+
+
+def carried(shape_se: np.ndarray, source: np.ndarray, refined: np.ndarray) -> np.ndarray:
+    """The shape errors (m, k) of the modes after the close-pair split: mode
+    ``i`` keeps those of input mode ``source[i]``; NaN where its shape comes
+    from the free-decay fit (``refined``) or it was found there (``source`` -1)."""
+    out = np.full((shape_se.shape[0], source.size), np.nan)
+    keep = (source >= 0) & ~refined
+    out[:, keep] = shape_se[:, source[keep]]
+    return out
+
