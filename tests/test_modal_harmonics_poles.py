@@ -73,6 +73,11 @@ def test_a_still_pole_is_judged_by_its_signed_damping():
     drop, found = confirm(Screened([y], [], [doubtful]), dt, np.array([w]), np.array([1.06e-4]),
                           np.array([1.06e-4]))
     assert drop.tolist() == [False]  # a decaying pole there is the support tests' to judge
+    # no low kurtosis: a growing pole that the support tests would count 1e-4 x 3.88 x 7200 = 2.8 decay times
+    # and report is dropped on its damping alone (it was kept, the doubtful line consumed, before)
+    plain = Line(w, np.array([0.1 + 0.0j, 0.05]), 2.95, 98.0, 64)
+    drop, found = confirm(Screened([y], [], [plain]), dt, np.array([w]), np.array([1.06e-4]), np.array([-9.3e-5]))
+    assert drop.tolist() == [True] and [f.test for f in found] == ["damping"]
 
 
 @pytest.mark.parametrize("seed, harmonic, mode", [(2009, 7.2102, None), (2049, None, 0.3948)])

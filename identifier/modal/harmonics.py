@@ -49,9 +49,10 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
   :mod:`identifier.modal.support`), or ``|zeta| < ZETA_FLOOR``, the least damping the support tests
   count. At a sure line, a doubtful one of ``z >= LIKELY``, or else of band kurtosis ``z >= SURE``
   over up to ``BLOCKS[1]`` lines of the cleaned records: a harmonic (``kurtosis+damping``), dropped
-  from the modes. Both ``D < STILL`` and ``|zeta| < ZETA_FLOOR`` without a low kurtosis: one too
-  (``damping``; the support tests would count it damped at the floor and report it); the other ``D
-  < STILL`` are left to the support tests, which reject them (no damping determined, no harmonic shown);
+  from the modes. ``D < STILL`` without a low kurtosis, when ``|zeta| < ZETA_FLOOR`` or the support
+  tests would count ``max(zeta, ZETA_FLOOR) omega T`` at least ``STILL`` decay times and report it (a
+  pole of negative signed median damping): one too (``damping``); the other ``D < STILL`` are left to
+  the support tests, which reject them (no damping determined, no harmonic shown);
 - a damped SSI mode whose peak is a line's (``line``, :func:`_pole_line`): the strongest line within
   ``r = max(h, 2)`` lines of it stands ``conc(r)`` times above what a mode of half-width ``h`` gives
   (``P_j`` over the median of the lines 4 to ``max(h, 8)`` from it, times the median of ``1 / (1 +
@@ -171,8 +172,8 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                 doubtful.remove(line)
             if line.z >= (LIKELY if np.isfinite(line.ratio) else SURE):
                 test = "kurtosis+damping"
-            elif still and zeta_abs[i] < ZETA_FLOOR:  # support would count it damped at the floor and report it
-                test = "damping"
+            elif still and (zeta_abs[i] < ZETA_FLOOR or max(zeta[i], ZETA_FLOOR) * omega[i] * total >= STILL):
+                test = "damping"  # support would count it damped at the floor (or |zeta|) and report it
             else:  # no sign of a sinusoid: support judges it (under STILL decay times: rejected)
                 continue
             drop[i] = True
