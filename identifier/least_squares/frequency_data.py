@@ -5,7 +5,10 @@ channels (:func:`identifier.least_squares.quantities.response_channels`: one
 per DOF, the lowest level measured there), the FRFs by
 :func:`identifier.frf.estimate` (``H1``; Welch for random tests, one record
 per average for impulses, a per-line fit per stepped-sine test; Welch
-segments at most :data:`MAX_SEGMENT` samples). Then:
+segments at most :data:`MAX_SEGMENT` samples; with unmeasured DOF
+1 / :data:`PARTIAL_AVERAGES` of the shortest record, up to that cap: the
+unmeasured DOF amplify the leakage bias of short segments,
+docs/least-squares-method.md). Then:
 
 * **force noise**: ``H1 = S_fx / S_ff`` is biased low by the force's noise
   spectrum ``N_ff``; when the force channel declares its noise (white,
@@ -60,6 +63,7 @@ LEVELS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 MIN_COHERENCE = 0.5
 ZOH_PASSES = 8
 MAX_SEGMENT = 8192  # Welch segment cap (samples): lines and time grow with it, leakage bias falls
+PARTIAL_AVERAGES = 4  # with unmeasured DOF: Welch segments of 1/4 of a record (at most MAX_SEGMENT samples)
 FIRST_OMEGA_DT = 0.3  # the first estimate (before any defect is known) from lines with omega dt up to this
 
 
@@ -128,6 +132,8 @@ def measured(traces: Sequence[Trace], model: Structure,
         segment = None  # the FRF's default (about 1/16 of the samples), at most MAX_SEGMENT samples
         if _analysis_of(first) == "welch" and 2 ** int(np.log2(max(8, min(n_min, sum(t.time.size for t in group) / 16)))) > MAX_SEGMENT:
             segment = MAX_SEGMENT * first.dt
+        if partial and _analysis_of(first) == "welch":  # unmeasured DOF amplify leakage bias: longer segments
+            segment = min(MAX_SEGMENT, 2 ** int(np.log2(max(8, n_min / PARTIAL_AVERAGES)))) * first.dt
         frf = frf_module.estimate(group, "H1", force=force_name, responses=list(names), segment=segment)
         omega = 2 * np.pi * frf.frequency
         s_ff, s_xx, s_fx = frf.auto_force, frf.auto_response, frf.cross
