@@ -9,8 +9,8 @@ quantity the sample standard deviation over the N runs (``ddof = 1``; its
 own relative standard error about ``1 / sqrt(2 (N - 1))``) is compared with
 the prediction (``updating``: the modes of every repetition from
 ``modal``, then ``updating`` from them, starting from the campaign's
-``[prior]`` if it has one, else from the planning model: the spread, not
-the convergence from a wrong start, is what is checked). Modes are
+``[prior]`` if it has one, else from the planning model, unregularised:
+the spread, not the convergence from a wrong start, is what is checked). Modes are
 matched to the planned ones by the nearest identified ``omega`` within
 :data:`MATCH` (relative); a mode found in fewer than 3 runs gets no
 achieved value (None).
@@ -78,8 +78,12 @@ def compare(document: dict[str, Any], runs: list[dict[str, Any]]) -> dict[str, A
 def _updating(api, folder: Path, file: Path, test: str, model: str | Path | None, jobs: int | None,
               options: dict[str, Any]) -> dict[str, Any]:
     """Modes of every repetition (``modal``), then ``updating`` from them,
-    starting from the campaign's ``[prior]``, else from the planning model."""
+    starting from the campaign's ``[prior]``, else from the planning model,
+    without regularisation unless ``options`` say otherwise: the bound is
+    that of unbiased estimators, and Tikhonov toward a prior at the
+    planning model (the truth of these runs) pulls the spread below it."""
     import tomllib
+    options = {"regularisation": "none"} | options
     api.identify(folder, "modal", model=model, groups=[test], jobs=jobs)
     prior = None
     if not (folder / "prior.json").is_file():

@@ -34,10 +34,14 @@ Residuals (n,) (:mod:`.residuals`), each divided by its stated standard error:
   standard error. Eigenvector differences rather than MAC values:
   ``1 - MAC`` is flat far from the answer and a poor guide.
 
-Where no standard errors are stated (shapes of a ``modal`` results file
-have none; a modal-data file may omit them) the weights are 1 and
-``details.weights`` says so; ``shape_std`` (relative to each shape's largest
-entry) states one for the shapes.
+The shapes' errors are those the modal method states per entry
+(``mode_shapes_std`` of a ``modal`` results file: its shape normalisation,
+the scale held, so that the least-squares scaling below profiles the scale
+out) or a modal-data file's ``shape_std``. Where none is stated (a
+``rayleigh`` or imported file, a close-pair fit's shape, a modal-data file
+that omits them) the weights are 1 and ``details.weights`` says so;
+``shape_std`` (relative to each shape's largest entry) states one for the
+entries without.
 
 Pairing and the two stages. At the prior the model modes are paired with
 the measured ones by an assignment on ``1 - MAC`` (a small frequency term

@@ -115,8 +115,9 @@ def from_document(doc: dict[str, Any], source: str = "") -> ModalData:
 
 def from_run(run: dict[str, Any], source: str = "") -> ModalData:
     """One run of a ``modal`` (or ``rayleigh``) results file: ``omega``,
-    ``omega_std`` (rad/s) and ``mode_shapes`` over ``sensors``; shapes have
-    no stated standard errors there."""
+    ``omega_std`` (rad/s), ``mode_shapes`` over ``sensors`` and their
+    standard errors ``mode_shapes_std`` (NaN where absent: a ``rayleigh``
+    or imported file, or a mode without them)."""
     where = source or "modal results"
     omega = np.asarray(run.get("omega") or [], dtype=float)
     if omega.size == 0:
@@ -133,9 +134,10 @@ def from_run(run: dict[str, Any], source: str = "") -> ModalData:
     if shapes.shape != (len(dofs), omega.size):
         raise IdentificationError(f"{where}: mode_shapes do not match omega and sensors", field="mode_shapes")
     std = np.asarray(run.get("omega_std") or [np.nan] * omega.size, dtype=float)
+    shape_std = np.asarray(run.get("mode_shapes_std") or [], dtype=float)
+    shape_std = shape_std.T if shape_std.shape == shapes.T.shape else np.full_like(shapes, np.nan)
     keep = omega > 0
-    return ModalData(omega[keep] ** 2, (2 * omega * std)[keep], shapes[:, keep], np.full_like(shapes[:, keep], np.nan),
-                     dofs, source)
+    return ModalData(omega[keep] ** 2, (2 * omega * std)[keep], shapes[:, keep], shape_std[:, keep], dofs, source)
 
 
 def load(path: str | Path, tests: list[str] | None = None, repetition: int | None = None) -> ModalData:
