@@ -74,7 +74,7 @@ def identify(seed: int) -> dict:
 
 REASONS = {"periods in": "periods", "decay times": "decay times", "jackknife": "not found again",
            "no finite": "no finite error", "x omega (over": "imprecise", "of the model orders": "stable < 50 %, loose",
-           "duplicate": "duplicate", "coherence": "temporal coherence"}
+           "duplicate": "duplicate", "coherence": "temporal coherence", "matched-filter": "under the noise"}
 
 
 def reason(text: str) -> str:
@@ -169,7 +169,9 @@ def report(rows: list[dict]) -> str:
              f"(of {len(cover)})",
              f"invented {sum(inv.values())}: " + ", ".join(f"{k} {v}" for k, v in inv.most_common()),
              f"missed supported {sum(mis.values())}: " + ", ".join(f"{k} {v}" for k, v in mis.most_common())]
-    lines += [f"  {g}: " + ", ".join(f"{k} {v}" for k, v in c.most_common()) for g, c in sorted(by_group.items())]
+    count = Counter(group(row) for row in rows if "error" not in row)
+    lines += [f"  {g} ({count[g]} records): " + ", ".join(f"{k} {v}" for k, v in c.most_common())
+              for g, c in sorted(by_group.items())]
     return "\n".join(lines)
 
 

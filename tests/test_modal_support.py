@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from structbench.identifier.modal.decay_snr import noise_variance, screen, statistics
+from structbench.identifier.modal.decay_snr import screen, statistics
 from structbench.identifier.modal.support import Verdict, judge
 
 
@@ -77,16 +77,3 @@ def test_matched_filter_statistic_of_a_mode_is_its_energy_over_the_noise():
     assert v.keep.tolist() == [True, False]
     assert "matched-filter" in v.reasons[1]
 
-
-def test_the_noise_variance_ignores_a_misfit_at_the_start():
-    """A residual of white noise (variance 1e-4) plus a decaying misfit of a
-    strong mode fitted with a wrong damping (100 e^(-0.8 t), gone after the
-    first tenth of 200 s): the median over tenths gives the noise's
-    variance within 10 % (chi-square spread of 2,000 samples per tenth: 3
-    %), the mean over the record 20 times too much."""
-    dt, n = 0.01, 20000
-    t = np.arange(n) * dt
-    residual = 100 * (np.exp(-0.8 * t) - np.exp(-0.16 * t) * (t < 20)) * np.cos(40 * t) \
-        + 0.01 * np.random.default_rng(7).standard_normal(n)
-    assert noise_variance(residual[None], n)[0] == pytest.approx(1e-4, rel=0.1)
-    assert np.mean(residual**2) > 20 * 1e-4

@@ -11,8 +11,7 @@ projected on these ``2 K`` columns, per channel and
 trace. The extra sum of squares that mode ``r``'s two columns explain
 beyond the others, ``ESS_ir = c_ir^T (V_rr)^-1 c_ir`` (``c_ir`` its two
 coefficients, ``V_rr`` their 2 x 2 block of ``(X^T X)^-1``), over the
-noise variance ``s_i^2`` (the residual's ``|y_i - X c_i|^2 / (n - 2 K)``,
-its median over tenths of the record: :func:`noise_variance`), summed over the channels and
+residual variance ``s_i^2 = |y_i - X c_i|^2 / (n - 2 K)``, summed over the channels and
 traces, is
 
     chi2_r = sum_i ESS_ir / s_i^2  ~  chi-square(2 M)
@@ -29,8 +28,10 @@ The fit starts at the first sample where the records' standardised power
 reaches a quarter of its peak within the first tenth (an impulse after a
 pre-trigger; sample 0 for an initial condition). Assumes white sensor noise, independent between
 channels, and a response that is a sum of the candidate poles' decays
-(a mode SSI did not see at all that lasts the whole record inflates
-``s_i^2``: conservative). Fails
+(a mode SSI did not see, or a pole of a wrong damping, leaves a misfit
+that inflates ``s_i^2``: conservative; the median over tenths of the
+record instead kept one weak true mode under a strong mode's misfit in
+the tuning seeds, but let a noise pole beside an unseen mode through). Fails
 (keeps a noise pole) when the noise is coloured or correlated between
 channels; fails (drops a true mode) when its energy is under the
 look-elsewhere threshold, which no test on this record could tell from
@@ -43,7 +44,6 @@ from scipy.stats import chi2
 
 from .support import Verdict
 
-SEGMENTS = 10  # the noise variance: the median over this many segments of the residual
 ALPHA = 0.01  # chance that the record's noise alone passes one mode's test, over all frequencies
 
 
@@ -54,21 +54,6 @@ def start(y: np.ndarray) -> int:
     z = y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny)
     power = np.sum(z[:, :max(y.shape[1] // 10, 1)] ** 2, axis=0)
     return int(np.argmax(power >= 0.25 * power.max()))
-
-
-def noise_variance(residual: np.ndarray, dof: int, pieces: int = SEGMENTS) -> np.ndarray:
-    """Per channel (m,) the white noise's variance from the fit's
-    ``residual`` (m, n) of ``dof`` degrees of freedom: the median over
-    ``pieces`` contiguous segments (of at least 200 samples) of the
-    residual's mean square, scaled by ``n / dof``. A pole fitted with a
-    slightly wrong damping leaves a misfit where the response is large, at
-    the start; the median is the noise's while under half the segments
-    hold such a misfit."""
-    m, n = residual.shape
-    count = max(1, min(pieces, n // 200))
-    size = n // count
-    power = np.mean(residual[:, :count * size].reshape(m, count, size) ** 2, axis=2)
-    return np.median(power, axis=1) * n / max(dof, 1)
 
 
 def statistics(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray,
@@ -101,7 +86,7 @@ def statistics(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np
         V = np.linalg.pinv(X.T @ X, rcond=1e-12, hermitian=True)  # (X^T X)^-1 of unit columns
         b = X.T @ y.T  # (2K, m)
         coef = V @ b
-        s2 = noise_variance(y - (X @ coef).T, n - 2 * w.size)
+        s2 = np.maximum(np.sum(y**2, axis=1) - np.sum(b * coef, axis=0), 0.0) / (n - 2 * w.size)  # (m,)
         for r in range(k):
             idx = [r, r + w.size]
             c = coef[idx]  # (2, m)
