@@ -18,34 +18,26 @@ identification (single-threaded BLAS).
     python benchmarks/least_squares_unmeasured.py [--structures ch3-damped-beam] [--quantities velocity]
         [--first 0] [--repetitions 20] [--samples 32768] [--jobs 2]
 
-Seeds (repetitions) 0-4 were used while choosing constants (start, tolerances);
-the figures quoted in docs/least-squares-method.md are from ``--first 100
---repetitions 20`` (repetitions 100-119), not used while choosing.
+Seeds (repetitions) 0-4 were used while choosing the start's constants and
+0-2 (with 100-102) for the Welch segment of the unmeasured-DOF path (a
+quarter record); repetitions 200-219 were run once on the final code:
 
-Measured on the final code (repetitions 100-119, 2 processes on a 2-core
-machine at load about 20, so CPU per identification is the speed figure):
+    ch3-damped-beam, transverse velocity only, repetitions 200-219: normalized RMS median 0.00753
+        (p10 0.00625, p90 0.00975); 95 % coverage 0.967 over 900 intervals (RMS of error / standard
+        error 0.98); undetermined 0; CPU per identification median 13.2 s (max 17.1 s);
+        bias RMS 0.00578, spread 0.00593
+    ch3-damped-beam, transverse acceleration only, repetitions 200-219: median 0.00264 (p10 0.00188,
+        p90 0.00323); coverage 0.944 (RMS 1.03); CPU median 14.3 s (max 16.4 s); bias 0.00129,
+        spread 0.00232
 
-    ch3-damped-beam, transverse velocity only: normalized RMS median 0.02883 (p10 0.02495, p90 0.03157);
-        95 % coverage 1.000 over 900 intervals; undetermined 0; CPU median 3.0 s (max 3.8 s)
-    ch3-damped-beam, transverse acceleration only: normalized RMS median 0.00986 (p10 0.00848, p90 0.01186);
-        95 % coverage 0.984 over 900 intervals; undetermined 0; CPU median 4.6 s (max 5.0 s)
-
-(with every DOF measured the same records give 0.0080 per repetition,
-benchmarks/least_squares_frequency.py). Tuning repetitions 0-4: velocity
-median 0.0296; accelerations (0-1) 0.0094; displacements (0-4) fail: a
-dozen coherent lines (rigid-body drift buries the flexible response). The
-velocity intervals are too wide: on repetition 0 the RMS of error /
-standard error is 0.26. Its 195 coherent lines make 26 clusters of 8 for 45
-unknowns, so the sandwich's small-sample factor n_c / (n_c - n_u) is
-clipped at 26 (a 5x wider interval); the model-based errors alone (cost per
-degree of freedom 0.87) give an RMS of 2.79 there, 1.89 from accelerations
-(82 clusters): too narrow. The error is mostly bias: over repetitions
-100-109 (velocities) the RMS over parameters of the mean relative error is
-0.0276, of the spread 0.0083 (the full-DOF frequency domain on the same
-records: 0.0073 and 0.0028, the unmeasured-DOF solver given every DOF
-reproduces it to 1e-6), so the rotations left out amplify a bias the
-full-DOF estimate has too (leakage of the 2048-sample Welch segments of one
-record is the likely source; not resolved).
+(a 2-core machine at load about 20: CPU time, single-threaded BLAS, is the
+speed figure). Before the quarter-record segments (the FRF default, 1/16),
+repetitions 100-119 from velocities: median 0.0288 (p10 0.0250, p90
+0.0316), coverage 1.000, CPU 3.0 s; repetitions 100-109: bias 0.0276, spread
+0.0083; the same records with every DOF measured (full-DOF frequency
+domain, same segments): bias 0.0073, spread 0.0028. Displacements (tuning
+repetitions 0-4) fail: a dozen coherent lines (rigid-body drift buries the
+flexible response).
 """
 from __future__ import annotations
 
