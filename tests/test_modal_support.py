@@ -77,3 +77,18 @@ def test_matched_filter_statistic_of_a_mode_is_its_energy_over_the_noise():
     assert v.keep.tolist() == [True, False]
     assert "matched-filter" in v.reasons[1]
 
+
+
+def test_a_close_pair_the_record_does_not_resolve_is_left_to_the_pair_tests():
+    """Two modes 0.01 % apart (1.09144 and 1.09154 rad/s, the membrane's
+    pair) in 100 s of a free decay: their columns are nearly one, so
+    each alone explains almost nothing beyond the other; both are kept
+    (their separation is under 2 pi / T), while a noise pole elsewhere is
+    still refused."""
+    dt, n = 0.01, 10001
+    t = np.arange(n) * dt
+    w, z = np.array([1.09144, 1.09154]), np.array([0.001, 0.001])
+    y = (np.exp(-0.001 * 1.09144 * t) * np.cos(1.09144 * t) + np.exp(-0.001 * 1.09154 * t) * np.sin(1.09154 * t)
+         + 0.1 * np.random.default_rng(8).standard_normal(n))[None]
+    v = screen([y], dt, np.r_[w, 3.3], np.r_[z, 0.001], Verdict(np.ones(3, bool), ["", "", ""]), [])
+    assert v.keep.tolist() == [True, True, False]

@@ -105,7 +105,9 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     against the sensor noise (:func:`statistics`; the candidates it does not
     keep and ``others``, ``details.rejected`` entries, fitted beside them,
     but for those within ``max(2 pi / T, zeta_a omega_a + zeta_b omega_b)``
-    of a kept mode: the same pole, which would take up its fit).
+    of a kept mode: the same pole, which would take up its fit). Kept modes
+    within that distance of each other (a close pair the record does not
+    resolve: their columns share one fit) are left to the pair tests.
     A record leaving no degree of freedom for the noise changes nothing."""
     keep = verdict.keep
     if not keep.any():
@@ -118,8 +120,11 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         + np.abs(zeta[None, keep]) * omega[None, keep])  # within a kept mode's bandwidth: the same pole
     nuisance = nuisance[~near.any(axis=1)]
     value, needed = statistics(records, dt, omega[keep], zeta[keep], nuisance)
+    w, z = omega[keep], np.abs(zeta[keep])
+    crowded = np.abs(w[:, None] - w[None, :]) < np.maximum(2 * np.pi / length, z[:, None] * w[:, None] + z * w)
+    np.fill_diagonal(crowded, False)  # a pair the record does not resolve shares its fit: left to the pair tests
     fails = np.zeros(keep.size, dtype=bool)
-    fails[keep] = value < needed  # NaN: no verdict
+    fails[keep] = (value < needed) & ~crowded.any(axis=1)  # NaN: no verdict
     reasons = [f"matched-filter chi-square {v:.3g} under the sensor noise's {t:.3g} (free response)"
                if f else r
                for r, f, v, t in zip(verdict.reasons, fails, _spread_to(value, keep), _spread_to(needed, keep))]
