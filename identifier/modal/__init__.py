@@ -243,7 +243,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
                     errors=replicates is not None)
-    if free:  # each mode above the sensor noise of the free response
+    if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
+        # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)
     dropped = support_rejected(omega, zeta, verdict)
     rejected = incoherent + dropped
