@@ -154,11 +154,10 @@ def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> li
     ranks them by the decoupled-mode ``sum_r log det`` of each mode's 2 x 2
     block of ``J + I_c`` (O(C R)) and takes the exact ``log det`` of the best
     ``SHORTLIST``."""
-    ridge = eps * np.eye(info.shape[1])
     blocks = tg.mode_blocks(info)
 
-    def best(J: np.ndarray, banned: set[int]) -> tuple[int, float]:
-        ok = np.flatnonzero([loc not in banned for loc in locations])
+    def best(J: np.ndarray, allowed: np.ndarray) -> tuple[int, float]:
+        ok = np.flatnonzero(allowed)
         if ok.size > tg.SHORTLIST:
             pqs = tg.mode_blocks(J)[None] + blocks[ok]
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -169,23 +168,8 @@ def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> li
         i = int(np.argmax(val))
         return int(ok[i]), float(val[i])
 
-    chosen: list[int] = []
-    J = ridge.copy()
-    for _ in range(k):
-        j, _ = best(J, {locations[c] for c in chosen})
-        chosen.append(j)
-        J = J + info[j]
-    for _ in range(EXCHANGE_PASSES):
-        improved = False
-        for pos in range(k):
-            rest = chosen[:pos] + chosen[pos + 1:]
-            J_rest = ridge + info[rest].sum(axis=0)
-            j, val = best(J_rest, {locations[c] for c in rest})
-            if j != chosen[pos] and val > _logdet(J_rest + info[chosen[pos]]) + 1e-9:
-                chosen[pos], improved = j, True
-        if not improved:
-            break
-    return chosen
+    return tg.greedy_exchange(info, eps * np.eye(info.shape[1]), locations, k, best,
+                              lambda val, J: val > _logdet(J) + 1e-9, EXCHANGE_PASSES)
 
 
 def evaluate(info: np.ndarray, d: fd.Decay, chosen: list[int], eps: float,

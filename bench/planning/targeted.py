@@ -28,6 +28,8 @@ search is combinatorial). Fails (``ValueError``) for ``T`` < 1 or above R.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 SHORTLIST = 64  # candidates evaluated exactly per step; above: screened by the decoupled-mode value
@@ -94,6 +96,38 @@ def best_addition(J: np.ndarray, info: np.ndarray, blocks: np.ndarray, allowed: 
     return int(idx[i]), float(val[i])
 
 
+def greedy_exchange(info: np.ndarray, ridge: np.ndarray, locations: np.ndarray, k: int,
+                    best: Callable[[np.ndarray, np.ndarray], tuple[int, float]],
+                    better: Callable[[float, np.ndarray], bool], passes: int) -> list[int]:
+    """Indices of ``k`` candidates (at most one per location): greedy
+    additions of ``best(J, allowed)`` (the allowed candidate whose
+    information ``info[c]`` (C, P, P) added to ``J`` scores best, and that
+    score), then up to ``passes`` exchange passes, each sensor in turn
+    replaced by the best one given the others where ``better(score, J)``
+    (the score beats the layout ``J`` with it kept). ``ridge`` (P, P): the
+    information before any sensor."""
+    def allowed(taken: list[int]) -> np.ndarray:
+        return ~np.isin(locations, locations[taken]) if taken else np.ones(locations.size, bool)
+
+    chosen: list[int] = []
+    J = ridge.copy()
+    for _ in range(k):
+        j, _ = best(J, allowed(chosen))
+        chosen.append(j)
+        J = J + info[j]
+    for _ in range(passes):
+        improved = False
+        for pos in range(k):
+            rest = chosen[:pos] + chosen[pos + 1:]
+            J_rest = ridge + info[rest].sum(axis=0)
+            j, val = best(J_rest, allowed(rest))
+            if j != chosen[pos] and better(val, J_rest + info[chosen[pos]]):
+                chosen[pos], improved = j, True
+        if not improved:
+            break
+    return chosen
+
+
 def targeted(info: np.ndarray, zeta: np.ndarray, locations: np.ndarray, k: int, eps: float,
              count: int) -> list[int]:
     """Indices of ``k`` candidates (at most one per location) minimising the
@@ -102,25 +136,6 @@ def targeted(info: np.ndarray, zeta: np.ndarray, locations: np.ndarray, k: int, 
     relative, ``zeta`` (R,), ``locations`` (C,) ids, ``eps`` the ridge."""
     G = target_matrix(zeta, count)
     blocks = mode_blocks(info)
-    ridge = eps * np.eye(info.shape[1])
-
-    def allowed(taken: list[int]) -> np.ndarray:
-        return ~np.isin(locations, locations[taken]) if taken else np.ones(locations.size, bool)
-
-    chosen: list[int] = []
-    J = ridge.copy()
-    for _ in range(k):
-        j, _ = best_addition(J, info, blocks, allowed(chosen), G)
-        chosen.append(j)
-        J = J + info[j]
-    for _ in range(EXCHANGE_PASSES):
-        improved = False
-        for pos in range(k):
-            rest = chosen[:pos] + chosen[pos + 1:]
-            J_rest = ridge + info[rest].sum(axis=0)
-            j, val = best_addition(J_rest, info, blocks, allowed(rest), G)
-            if j != chosen[pos] and val < objective(J_rest + info[chosen[pos]], G) * (1 - 1e-9):
-                chosen[pos], improved = j, True
-        if not improved:
-            break
-    return chosen
+    return greedy_exchange(info, eps * np.eye(info.shape[1]), locations, k,
+                           lambda J, allowed: best_addition(J, info, blocks, allowed, G),
+                           lambda val, J: val < objective(J, G) * (1 - 1e-9), EXCHANGE_PASSES)
