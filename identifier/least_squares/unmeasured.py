@@ -59,7 +59,9 @@ iteration corrects. Fails when: the measured set does not determine the
 parameters (reported or raised as above); the start is outside the basin
 of the output error (a kind-factor start far from every parameter: the
 iteration then stops at a local minimum, which a large cost per degree of
-freedom in ``details["output_error_cost"]`` shows).
+freedom in ``details["output_error_cost"]`` shows); the lines are too few to
+support the estimate (no more clusters of correlated lines than determined
+parameters: refused, :func:`~.unmeasured_support.check_support`).
 """
 from __future__ import annotations
 
@@ -71,6 +73,7 @@ from structbench.models import Structure
 from ..errors import IdentificationError
 from .frequency import CHUNK, Equations, Lines, matrices
 from .identifiability import check_count, not_identifiable
+from .unmeasured_support import check_support
 
 PSEUDO_PASSES = 30  # linear pseudo-parameter passes at most (every parameter)
 FACTOR_PASSES = 10  # the same for the kind factors
@@ -343,7 +346,10 @@ def fit(eq: Equations, lines: Lines, p0: np.ndarray,
         sandwich = np.sqrt(np.sum(z**2, axis=1) * n_c / max(1, n_c - ok.size))
         classical = np.sqrt(np.diag(la.inv(Ao)) * c / dof)
         std[ok] = np.maximum(sandwich, classical)
-    info = {"output_error_steps": steps, "output_error_cost": c / dof,
+        info_se = {"clusters": int(n_c), "sandwich_over_model": float(np.median(sandwich / classical))}
+    else:
+        info_se = {}
+    info = info_se | {"lines": int(lines.omega.size), "output_error_steps": steps, "output_error_cost": c / dof,
             "rank": int(np.sum(vals > RANK_TOL * vals.max())),
             "undetermined_combinations": [
                 {lab: round(float(x), 3) for lab, x in sorted(zip(labels, v), key=lambda t: -abs(t[1]))[:4]}
@@ -351,26 +357,30 @@ def fit(eq: Equations, lines: Lines, p0: np.ndarray,
     return p, std, bad, info
 
 
-def solve(model: Structure, lines: Lines,
-          p0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+def solve(model: Structure, lines: Lines, p0: np.ndarray | None = None,
+          refuse: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """All parameters (the undetermined ones at a value the data do not
     fix), the unknowns' standard errors (n_u,) (NaN where undetermined), the
     undetermined mask (n_u,) and ``details``, from ``lines`` (``var`` inf
     where a DOF is unmeasured), from ``p0`` (all parameters; None: :func:`start`).
-    Raises when no parameter is determined, naming them and the unmeasured DOF."""
+    Raises when no parameter is determined, naming them and the unmeasured
+    DOF, and (``refuse``) when the lines cannot support the estimate
+    (:func:`check_support`)."""
     eq = Equations(model)
     info: dict = {}
     if p0 is None:
         p0, info = start(eq, lines)
     p, std, bad, more = fit(eq, lines, p0)
+    unmeasured = [model.dofs[j] for j in np.flatnonzero(~np.isfinite(lines.var).any(axis=0))]
     if bad.all():
         labels = [q.label for q, m in zip(model.parameters, model.kind_mask()) if m]
-        unmeasured = [model.dofs[j] for j in np.flatnonzero(~np.isfinite(lines.var).any(axis=0))]
         raise IdentificationError(
             f"no parameter is determined by the measured DOF (rank {more['rank']} of {bad.size}): "
             f"{', '.join(labels[:12])}{' ...' if len(labels) > 12 else ''} undetermined; unmeasured DOF "
             f"{', '.join(f'({n}, {d!r})' for n, d in unmeasured[:12])}{' ...' if len(unmeasured) > 12 else ''}: "
             "measure more of them", field="channels")
+    if refuse:
+        check_support(more, int(np.sum(~bad)), unmeasured)
     labels = [q.label for q, m in zip(model.parameters, model.kind_mask()) if m]
     return p, std, bad, info | more | {"undetermined": [lab for lab, b in zip(labels, bad) if b]}
 

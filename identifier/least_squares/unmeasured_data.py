@@ -11,7 +11,9 @@ approximation (for accelerations only at lines with ``omega dt <=``
 :data:`~.frequency_data.FIRST_OMEGA_DT`, when enough remain), then the
 defect of the latest estimate is subtracted and the fit repeated from it,
 up to :data:`~.frequency_data.ZOH_PASSES` times, until no determined
-parameter moves by 0.01 standard errors.
+parameter moves by 0.01 standard errors. The final estimate is refused
+when its lines cannot support it (:func:`~.unmeasured_support.check_support`:
+no more clusters of lines than determined parameters).
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from .estimate import Estimate
 from .frequency import CLUSTER
 from .frequency_data import FIRST_OMEGA_DT, MIN_COHERENCE, ZOH_PASSES, measured, receptance
 from .unmeasured import solve
+from .unmeasured_support import check_support
 
 
 def unmeasured_dofs(traces: Sequence[Trace], model: Structure) -> list[tuple]:
@@ -53,7 +56,7 @@ def solve_traces(traces: Sequence[Trace], model: Structure,
         first.omega * dt > FIRST_OMEGA_DT)
     if low.any() and 2 * np.isfinite(first.var[~low]).sum() >= 4 * mask.sum():
         first = first.take(~low)
-    p, std, bad, info = solve(model, first)
+    p, std, bad, info = solve(model, first, refuse=False)
     held = any(part.held for part in parts)
     passes = 0
     if held or low.any():
@@ -69,13 +72,15 @@ def solve_traces(traces: Sequence[Trace], model: Structure,
                     f"<= {FIRST_OMEGA_DT} (cost per degree of freedom {info['output_error_cost']:.3g}, 1 when the "
                     "model fits): that estimate is not a stable structure; measure velocities or displacements, "
                     "or more DOF", field="channels") from None
-            new, std, bad, info_new = solve(model, corrected, p)
+            new, std, bad, info_new = solve(model, corrected, p, refuse=False)
             info |= info_new
             ok = ~bad
             moved = np.max(np.abs(new[mask][ok] - p[mask][ok]) / np.maximum(std[ok], 1e-300), initial=0.0)
             p = new
             if moved < 0.01 or not held:
                 break
+    unmeasured = sorted({tuple(model.dofs[j]) for j in range(model.n_dof) if not any(j in part.dofs for part in parts)})
+    check_support(info, int(np.sum(~bad)), unmeasured)
     values = p[mask].copy()
     values[bad] = np.nan
     n_obs = int(sum(np.isfinite(part.var).sum() for part in parts))
@@ -83,8 +88,7 @@ def solve_traces(traces: Sequence[Trace], model: Structure,
         "estimator": "output error at the measured DOF (Gauss-Newton), unmeasured DOF condensed; start from "
                      "the kind factors and the linear pseudo-parameter iteration",
         "std_errors": f"larger of a sandwich over clusters of {CLUSTER} consecutive lines and the model-based",
-        "unmeasured_dofs": [list(d) for d in sorted({tuple(model.dofs[j]) for j in range(model.n_dof)
-                                                     if not any(j in part.dofs for part in parts)})],
+        "unmeasured_dofs": [list(d) for d in unmeasured],
         "frequency_domain": {"frf": "H1" + (" (declared force noise removed)" if any(p.force_noise for p in parts)
                                             else ""),
                              "analyses": sorted({p.analysis for p in parts}), "lines": kept,
