@@ -52,6 +52,10 @@ and 10/10; fresh 300-309 (run once):
         (RMS 0.92); CPU median 11.4 s; bias RMS 0.00489, spread 0.00591
     acceleration: refused 0/10; median 0.00262 (p10 0.00233, p90 0.00307); coverage 0.942 over 450
         (RMS 1.02); CPU median 13.9 s; bias RMS 0.00149, spread 0.00233
+
+Displacements with --samples 131072 (repetitions 0-1): refused 2/2 (the
+zero-order-hold correction's first estimate, cost per degree of freedom
+16.5, is not a stable structure).
 """
 from __future__ import annotations
 
