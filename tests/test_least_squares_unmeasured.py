@@ -161,3 +161,12 @@ def test_too_few_clusters_of_lines_are_refused_not_answered():
     p, std, bad, info = solve(topology(model), data)
     assert not bad.any() and info["clusters"] == 12 and info["lines"] == 12
     assert np.all(np.abs(p - model.values) < 5 * std), (p / model.values - 1, std / model.values)
+
+
+def test_sampling_refusal_suggests_sensors_by_the_quantities_measured() -> None:
+    """Displacements alone: velocities or accelerations would do; with them already measured, more DOF."""
+    from types import SimpleNamespace
+
+    from structbench.identifier.least_squares.unmeasured_data import _remedy
+    assert "velocities or accelerations" in _remedy([SimpleNamespace(levels=np.array([0, 0]))])
+    assert "velocities" not in _remedy([SimpleNamespace(levels=np.array([0, 2]))])

@@ -40,6 +40,13 @@ def unmeasured_dofs(traces: Sequence[Trace], model: Structure) -> list[tuple]:
     return [d for j, d in enumerate(model.dofs) if not all(j in h for h in have)]
 
 
+def _remedy(parts: Sequence) -> str:
+    """What would do when the sampling correction fails: other sensors for displacements alone."""
+    if all(np.all(p.levels == 0) for p in parts):
+        return "displacements alone carry few coherent lines: measure velocities or accelerations, or more DOF"
+    return "measure more DOF or a longer record"
+
+
 def solve_traces(traces: Sequence[Trace], model: Structure,
                  sigma_of: Callable[[Trace, Channel], np.ndarray]) -> tuple[Estimate, np.ndarray]:
     """The estimate over the unknown parameters (NaN where undetermined) and
@@ -70,8 +77,7 @@ def solve_traces(traces: Sequence[Trace], model: Structure,
                 raise IdentificationError(
                     "the sampling (zero-order-hold) correction failed at the estimate from the lines with omega dt "
                     f"<= {FIRST_OMEGA_DT} (cost per degree of freedom {info['output_error_cost']:.3g}, 1 when the "
-                    "model fits): that estimate is not a stable structure; measure velocities or displacements, "
-                    "or more DOF", field="channels") from None
+                    f"model fits): that estimate is not a stable structure; {_remedy(parts)}", field="channels") from None
             new, std, bad, info_new = solve(model, corrected, p, refuse=False)
             info |= info_new
             ok = ~bad
