@@ -198,6 +198,26 @@ def test_confidence_bands_cover_the_true_frf_in_the_nominal_share():
     assert 0.9 <= phase_in[keep].mean() <= 0.99
 
 
+def test_overlap_factor_matches_the_hann_closed_form_and_the_direct_sum():
+    """Welch's variance factor ``1 + 2 sum_j (1 - j/K) rho(j hop)``: for a
+    periodic Hann window at 50 % overlap ``sum_n w_n w_(n+L/2) / sum_n w_n^2
+    = 1/6`` exactly, so the factor is ``1 + 2 (1 - 1/K) / 36``; any window and
+    hop against the direct O(L^2) sum (np.correlate)."""
+    from scipy.signal import get_window
+
+    from structbench.identifier.frf.spectra import overlap_correlation
+
+    for L in (8, 1024, 16384):
+        assert overlap_correlation(get_window("hann", L), L // 2, 10) == pytest.approx(1 + 2 * 0.9 / 36, rel=1e-12)
+    w = np.random.default_rng(5).uniform(0.0, 1.0, 257)
+    for hop, K in ((1, 400), (37, 20), (128, 3), (300, 5)):
+        lags = np.arange(1, K) * hop
+        lags = lags[lags < w.size]
+        rho = (np.correlate(w, w, mode="full")[w.size - 1:][lags] / (w @ w)) ** 2
+        direct = 1 + 2 * np.sum((1 - np.arange(1, lags.size + 1) / K) * rho)
+        assert overlap_correlation(w, hop, K) == pytest.approx(direct, rel=1e-12)
+
+
 # --- stepped sine and impulse --------------------------------------------------------------------------
 
 def test_stepped_sine_lines_match_the_sampled_system():

@@ -64,7 +64,10 @@ def overlap_correlation(window: np.ndarray, hop: int, segments: int) -> float:
     if lags.size == 0:
         return 1.0
     energy = float(window @ window)
-    full = np.correlate(window, window, mode="full")[L - 1:]  # sum_n w_n w_(n+s), s = 0 .. L-1
+    # sum_n w_n w_(n+s), s = 0 .. L-1, by FFT zero-padded to 2 L (no wrap-around): O(L log L), where
+    # np.correlate is O(L^2) dot products
+    spectrum = sfft.rfft(window, 2 * L)
+    full = sfft.irfft(spectrum.real**2 + spectrum.imag**2, 2 * L)[:L]
     rho = (full[lags] / energy) ** 2
     j = np.arange(1, lags.size + 1)
     return float(1.0 + 2.0 * np.sum((1.0 - j / segments) * rho))
