@@ -242,7 +242,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                     np.array([md.support for md in modes]),
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
-                    errors=replicates is not None)
+                    errors=replicates is not None, shape_std=shape_se)
     if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
         # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)

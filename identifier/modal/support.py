@@ -31,7 +31,20 @@ a run add up as independent records):
                                 (zeta_a omega_a + zeta_b omega_b) / 2),
 
   are one mode seen twice (a pole cluster split by the shape noise of a
-  short record); so are two modes of any shapes whose frequencies and
+  short record). So are two unresolved modes of unlike shapes when the
+  shapes' standard errors (the jackknife's, per entry of the reported real
+  shapes ``u_a``, ``u_b`` (m,), errors ``s_a``, ``s_b``) explain the
+  difference: with the scale ``c = sum w u_a u_b / sum w u_a^2``, ``w = 1 /
+  (s_b^2 + s_a^2)``,
+
+      chi2 = sum_i (u_b,i - c u_a,i)^2 / (s_b,i^2 + c^2 s_a,i^2)  <  chi2.isf(SAME_SHAPE, m - 1):
+
+  two estimates of one shape differ by their noise, ``chi2 ~ chi-square(m
+  - 1)``, while the shapes of two modes differ by more (a weak mode's
+  shape, noisy, has a low MAC to a strong mode's own even when it is that
+  mode: the MAC alone let such second estimates through). Not applied
+  where an error is not finite (over ``ROW_CHANNELS`` sensors, or a mode
+  some replicates missed) or ``m < 2``. So are two modes of any shapes whose frequencies and
   damping ratios agree far more closely than their errors allow for two
   estimates (``|delta omega| < TWIN sqrt(se_a^2 + se_b^2)``, likewise
   ``zeta``): one pole whose shape the record splits in two. The one of
@@ -87,8 +100,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
+
+from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
 FREE_PERIODS = 1.0  # ... in a free response
@@ -100,6 +116,7 @@ BANDWIDTH = 0.5  # ... or omega_std < BANDWIDTH zeta omega (a share of its half-
 MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
+SAME_SHAPE = 0.01  # ... two unresolved shapes whose difference has a chi-square above chance this often: one mode
 BIAS = 1.0  # the short-record bias's standard deviation, x 1 / T rad/s
 
 
@@ -135,15 +152,17 @@ def with_bias(omega: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray, le
 
 def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
           missed: np.ndarray, support: np.ndarray, stable: np.ndarray, shapes: np.ndarray, length: float,
-          decay: bool, groups: int, errors: bool = True) -> Verdict:
+          decay: bool, groups: int, errors: bool = True, shape_std: np.ndarray | None = None) -> Verdict:
     """The verdict on candidate modes (k,): ``omega`` rad/s, ``zeta``, their
     standard errors (bias included), ``missed`` (jackknife replicates that did
     not find each), ``support`` (stable poles), ``stable`` (share of the
     model orders each is stable at), complex ``shapes`` (m, k),
     records of total ``length`` s, ``decay``: free responses; ``groups``:
     jackknife replicates; ``errors``: standard errors were estimated (with
-    ``uncertainty="off"`` the repetition and error tests are skipped). Tests
-    and thresholds in the module docstring."""
+    ``uncertainty="off"`` the repetition and error tests are skipped);
+    ``shape_std`` (m, k): standard errors of the entries of the real
+    shapes (:func:`identifier.modal.ssi.poles.real_shapes`), NaN where
+    unknown. Tests and thresholds in the module docstring."""
     k = omega.size
     reasons = [""] * k
     periods = omega * length / (2 * np.pi)
@@ -167,7 +186,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
                           f"{BANDWIDTH:g} zeta)")
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
-        alike = mac(shapes, shapes) > DUPLICATE_MAC
+        alike = (mac(shapes, shapes) > DUPLICATE_MAC) | same_shape(shapes, shape_std)
         se = np.where(np.isfinite(omega_std), omega_std, 0.0)
         sz = np.where(np.isfinite(zeta_std), zeta_std, 0.0)
         for i in np.argsort(-np.asarray(support), kind="stable"):  # the best supported first
@@ -191,3 +210,26 @@ def rejected(omega: np.ndarray, zeta: np.ndarray, verdict: Verdict) -> list[dict
     ``omega`` rad/s, ``zeta``, ``reason``."""
     return [{"omega": float(w), "zeta": float(z), "reason": r}
             for w, z, r, k in zip(omega, zeta, verdict.reasons, verdict.keep) if not k]
+
+
+def same_shape(shapes: np.ndarray, shape_std: np.ndarray | None) -> np.ndarray:
+    """(k, k): whether each pair of complex ``shapes`` (m, k) is one shape
+    within the standard errors ``shape_std`` (m, k) of their real forms
+    (the chi-square of the module docstring under ``chi2.isf(SAME_SHAPE,
+    m - 1)``); False where an error is not finite or positive, or ``m < 2``."""
+    m, k = shapes.shape
+    out = np.zeros((k, k), dtype=bool)
+    if shape_std is None or m < 2 or k < 2:
+        return out
+    u, s = real_shapes(shapes), np.asarray(shape_std, dtype=float)
+    ok = np.all(np.isfinite(s) & (s > 0), axis=0)
+    bound = chi_square.isf(SAME_SHAPE, m - 1)
+    for a in np.flatnonzero(ok):
+        for b in np.flatnonzero(ok):
+            if b <= a:
+                continue
+            w = 1.0 / (s[:, a] ** 2 + s[:, b] ** 2)
+            c = np.sum(w * u[:, a] * u[:, b]) / max(np.sum(w * u[:, a] ** 2), 1e-300)
+            value = np.sum((u[:, b] - c * u[:, a]) ** 2 / (s[:, b] ** 2 + c**2 * s[:, a] ** 2))
+            out[a, b] = out[b, a] = value < bound
+    return out
