@@ -169,7 +169,7 @@ def sampled(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
     at ``part``'s lines and levels, (L, n)."""
     M, C, K = matrices(model, p)
     try:
-        minv = la.inv(M)
+        minv = np.linalg.inv(M)
     except la.LinAlgError:
         raise IdentificationError("the frequency-domain estimate's mass matrix is singular: no sampled-data "
                                   "FRF to correct the lines with (too few or too noisy lines)", field="channels") from None
@@ -182,12 +182,12 @@ def sampled(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
     rhs = Q.conj().T @ Bd[:, part.force]
     z = np.exp(1j * part.omega * part.dt)
     m = T.shape[0]
-    y = np.zeros((z.size, m), dtype=complex)
+    y = np.zeros((m, z.size), dtype=complex)  # state-major: each step an elementwise sum, no BLAS call
     for k in range(m - 1, -1, -1):  # (z I - T) y = rhs, T upper triangular
-        y[:, k] = (rhs[k] + y[:, k + 1:] @ T[k, k + 1:]) / (z - T[k, k])
+        y[k] = (rhs[k] + np.sum(T[k, k + 1:, None] * y[k + 1:], axis=0)) / (z - T[k, k])
     out = np.stack([ss.Cd, ss.Cv, ss.Ca])[part.levels, part.dofs]  # (s, 2 n)
     direct = np.where(part.levels == 2, ss.Da[part.dofs, part.force], 0.0)
-    return (y @ Q.T) @ out.T + direct[None, :]
+    return np.einsum("kl,ks->ls", y, np.einsum("jk,sj->ks", Q, out)) + direct[None, :]
 
 
 def continuous(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
@@ -200,11 +200,15 @@ def continuous(model: Structure, p: np.ndarray, part: Measured) -> np.ndarray:
     return np.linalg.solve(Z, e)[..., 0][:, part.dofs] * (1j * w[:, None]) ** part.levels[None, :]
 
 
-def receptance(model: Structure, parts: Sequence[Measured], p: np.ndarray | None) -> Lines:
+def receptance(model: Structure, parts: Sequence[Measured], p: np.ndarray | None,
+               model_h: np.ndarray | None = None) -> Lines:
     """The :class:`Lines` of ``parts``, the sampling defect removed at the
     parameters ``p`` (None: the ``sinc`` approximation); a DOF without a
-    response channel gets ``h = 0`` and ``var = inf`` (no weight)."""
-    out = []
+    response channel gets ``h = 0`` and ``var = inf`` (no weight).
+    ``model_h`` (B, n), if given: the model's ``Z(p)^-1 e_f`` at the parts'
+    lines in order (an output-error evaluation's ``hh``), used instead of
+    solving for the continuous FRF again."""
+    out, offset = [], 0
     for part in parts:
         w = part.omega
         H = part.H
@@ -212,7 +216,10 @@ def receptance(model: Structure, parts: Sequence[Measured], p: np.ndarray | None
             if p is None:
                 H = H / (np.sinc(w * part.dt / (2 * np.pi)) * np.exp(-0.5j * w * part.dt))[:, None]
             else:
-                H = H - (sampled(model, p, part) - continuous(model, p, part))
+                cont = continuous(model, p, part) if model_h is None else \
+                    model_h[offset:offset + w.size, part.dofs] * (1j * w[:, None]) ** part.levels[None, :]
+                H = H - (sampled(model, p, part) - cont)
+        offset += w.size
         h = np.zeros((w.size, model.n_dof), dtype=complex)
         var = np.full((w.size, model.n_dof), np.inf)
         h[:, part.dofs] = H / (1j * w[:, None]) ** part.levels[None, :]
@@ -245,11 +252,14 @@ def solve_traces(traces: Sequence[Trace], model: Structure, sigma_of: Callable[[
     passes, std, p = 0, est.std_errors, model.values.copy()
     p[mask] = est.values
     held = any(part.held for part in parts)
+    memo: dict = {}  # the output-error fit's last evaluation, reused by the next pass (its Jacobian and hh)
     for _ in range(ZOH_PASSES if held or refined else 0):
-        lines = receptance(model, parts, p if held else None)
+        ev = memo.get("evaluation")
+        known = ev.hh if ev is not None and held and ev.hh.shape[0] == kept and np.array_equal(ev.p, p) else None
+        lines = receptance(model, parts, p if held else None, model_h=known)
         passes += held
         if refined:
-            new, std, info = refine(model, lines, p, iterations=2 if passes < ZOH_PASSES else 30)
+            new, std, info = refine(model, lines, p, iterations=2 if passes < ZOH_PASSES else 30, memo=memo)
             est.details |= info
         else:
             new = p.copy()

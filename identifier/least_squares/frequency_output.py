@@ -13,7 +13,8 @@ noise of variance ``V``: the measured ``h`` is the output, not a
 regressor, so there is no errors-in-variables bias to compensate (only the
 second-order bias of any nonlinear least squares, ``O(V)``). The Jacobian is
 exact and cheap: ``d Hh e_f / d p = -Hh Z_p Hh e_f = -Hh Y_p(Hh e_f)``
-with ``Y_p`` the regressor column of :class:`~.frequency.Equations`.
+with ``Y_p`` the regressor column of :class:`~.frequency.Equations`, a few
+rows per parameter (:mod:`.frequency_jacobian`).
 
 Started from the bias-compensated linear estimate; steps accepted when the
 cost falls (``lambda`` divided by 3, else multiplied by 4), stopped when no
@@ -30,52 +31,42 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as la
 
-from .frequency import CHUNK, Equations, Lines, matrices
+from .frequency import Equations, Lines
+from .frequency_jacobian import Derivatives, Evaluation, evaluate
 
 ITERATIONS = 30
 STEP_TOL = 0.01  # stop when every step is below this share of its standard error
 
 
-def _residual(eq: Equations, lines: Lines, p: np.ndarray, u: np.ndarray,
-              jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Whitened residuals (B, n) complex and their Jacobian (B, n, n_u) w.r.t. ``p[u]``."""
-    M, C, K = matrices(eq.model, p)
-    r = np.empty(lines.h.shape, dtype=complex)
-    J = np.empty(lines.h.shape + (u.size,), dtype=complex) if jacobian else None
-    scale = np.mean(lines.var)
-    for lo in range(0, lines.omega.size, CHUNK):
-        part = slice(lo, lo + CHUNK)
-        w, f = lines.omega[part], lines.force[part]
-        Z = K[None] - (w**2)[:, None, None] * M[None] + 1j * w[:, None, None] * C[None]
-        sd = np.sqrt(lines.var[part] + 1e-9 * scale) if scale > 0 else np.ones_like(lines.var[part])
-        if jacobian:
-            Hh = np.linalg.inv(Z)
-            hh = Hh[np.arange(w.size), :, f]
-            Y = eq.regressor(w, hh, f)[:, :, u]  # (b, n, n_u): Z_p hh
-            J[part] = -np.matmul(Hh, Y) / sd[:, :, None]
-        else:
-            e = np.zeros((w.size, M.shape[0], 1), dtype=complex)
-            e[np.arange(w.size), f] = 1.0
-            hh = np.linalg.solve(Z, e)[..., 0]
-        r[part] = (lines.h[part] - hh) / sd
-    return r, J
+def _reusable(memo: dict | None, lines: Lines, p: np.ndarray) -> Evaluation | None:
+    """The memo's evaluation if it was made at ``p`` on the same lines
+    (frequencies, forces and variances: the Jacobian does not depend on ``h``)."""
+    if not memo or "evaluation" not in memo:
+        return None
+    ev, seen = memo["evaluation"], memo["lines"]
+    same = (np.array_equal(ev.p, p) and np.array_equal(seen.omega, lines.omega)
+            and np.array_equal(seen.force, lines.force) and np.array_equal(seen.var, lines.var))
+    return ev if same else None
 
 
-def refine(model, lines: Lines, start: np.ndarray,
-           iterations: int = ITERATIONS) -> tuple[np.ndarray, np.ndarray, dict]:
+def refine(model, lines: Lines, start: np.ndarray, iterations: int = ITERATIONS,
+           memo: dict | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
     """All parameters ``p`` (unknown ones fitted), the unknowns' standard
-    errors, and what was done, from ``start`` (all parameters)."""
+    errors, and what was done, from ``start`` (all parameters). ``memo``: a
+    dict that keeps the last evaluation (:class:`~.frequency_jacobian.Evaluation`,
+    key ``"evaluation"``, with ``"lines"``) between calls on the same lines
+    with new ``h`` (the zero-order-hold passes): reused when ``start`` is its
+    ``p``."""
     eq = Equations(model)
-    mask = model.kind_mask()
-    u = np.flatnonzero(mask)
+    u = np.flatnonzero(model.kind_mask())
+    deriv = Derivatives(eq, u)
     p = np.array(start, dtype=float)
-    r, J = _residual(eq, lines, p, u)
+    ev = _reusable(memo, lines, p) or evaluate(eq, deriv, lines, p)
+    r = ev.residual(lines)
     cost = float(np.sum(np.abs(r) ** 2))
+    A, g = ev.normal(r)
     lam, done, steps = 1e-3, False, 0
     for _ in range(iterations):
-        Jf = J.reshape(-1, u.size)
-        A = (Jf.conj().T @ Jf).real
-        g = (Jf.conj().T @ r.ravel()).real
         scale = np.sqrt(np.diag(A))
         As = A / np.outer(scale, scale)
         std = np.sqrt(np.clip(np.diag(la.pinvh(As)), 0, None)) / scale * np.sqrt(max(cost, 1e-300) / max(1, r.size * 2 - u.size))
@@ -83,7 +74,8 @@ def refine(model, lines: Lines, start: np.ndarray,
             delta = la.solve(As + lam * np.eye(u.size), g / scale, assume_a="pos") / scale
             trial = p.copy()
             trial[u] += delta
-            r_new, _ = _residual(eq, lines, trial, u, jacobian=False)
+            ev_new = evaluate(eq, deriv, lines, trial)
+            r_new = ev_new.residual(lines)
             new = float(np.sum(np.abs(r_new) ** 2))
             if np.isfinite(new) and new <= cost:
                 lam = max(lam / 3.0, 1e-9)
@@ -94,19 +86,19 @@ def refine(model, lines: Lines, start: np.ndarray,
                 break
         if done:
             break
-        p, cost, steps = trial, new, steps + 1
-        r, J = _residual(eq, lines, p, u)
+        p, cost, steps, ev, r = trial, new, steps + 1, ev_new, r_new
+        A, g = ev.normal(r)
         if np.all(np.abs(delta) <= STEP_TOL * std):
             break
-    Jf = J.reshape(-1, u.size)
-    A = (Jf.conj().T @ Jf).real
-    s = (np.conj(J) * r[:, :, None]).sum(axis=1).real  # (B, n_u)
+    if memo is not None:
+        memo.update(evaluation=ev, lines=lines)
+    s = ev.scores(r)  # (B, n_u)
     clusters = np.unique(lines.cluster, return_inverse=True)[1]
     summed = np.zeros((clusters.max() + 1, u.size))
     np.add.at(summed, clusters, s)
-    z = la.solve(A, summed.T, assume_a="pos")
+    z = np.linalg.solve(A, summed.T)
     n_c = summed.shape[0]
     sandwich = np.sqrt(np.sum(z**2, axis=1) * n_c / max(1, n_c - u.size))
-    classical = np.sqrt(np.diag(la.inv(A)) * cost / max(1, 2 * r.size - u.size))
+    classical = np.sqrt(np.diag(np.linalg.inv(A)) * cost / max(1, 2 * r.size - u.size))
     std = np.maximum(sandwich, classical)
     return p, std, {"output_error_steps": steps, "output_error_cost": cost / max(1, 2 * r.size - u.size)}
