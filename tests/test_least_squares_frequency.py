@@ -100,6 +100,54 @@ def test_coverage_of_the_95_percent_intervals():
     assert 0.92 <= np.mean(inside) <= 0.98, np.mean(inside, axis=0)
 
 
+def test_output_error_jacobian_matches_finite_differences():
+    """The Jacobian of the whitened model FRF (frequency_jacobian.evaluate:
+    each parameter's few rows, dense product or gather) against central
+    differences of ``Z(p)^-1 e_f / sd``, on the 2-DOF chain with Rayleigh
+    damping (every parameter also in C) and on the chapter 3 damped beam;
+    ``Re(J^H J)`` and ``Re(J^H r)`` against the complex products."""
+    from structbench.identifier.least_squares.frequency import Equations
+    from structbench.identifier.least_squares.frequency_jacobian import Derivatives, evaluate
+
+    rng = np.random.default_rng(7)
+    for model in (_rayleigh_chain(), load_model("ch3-damped-beam")):
+        eq, u = Equations(model), np.flatnonzero(model.kind_mask())
+        n, B = model.n_dof, 40
+        data = Lines(rng.uniform(5.0, 200.0, B), rng.standard_normal((B, n)) + 1j * rng.standard_normal((B, n)),
+                     rng.uniform(0.5, 2.0, (B, n)), rng.integers(0, n, B), np.arange(B) // 8)
+        p = model.values * rng.uniform(0.9, 1.1, model.values.size)
+        for dense in (True, False):
+            deriv = Derivatives(eq, u)
+            deriv.dense = dense
+            ev = evaluate(eq, deriv, data, p)
+            for k, j in enumerate(u):
+                step = 1e-6 * abs(p[j])
+                hi, lo = p.copy(), p.copy()
+                hi[j] += step
+                lo[j] -= step
+                fd = (evaluate(eq, deriv, data, hi).hh - evaluate(eq, deriv, data, lo).hh) / (2 * step) / ev.sd
+                assert np.max(np.abs(ev.J[:, k] - fd)) < 1e-6 * np.max(np.abs(fd)), (model.name, k, dense)
+            r = ev.residual(data)
+            Jf = ev.J.transpose(0, 2, 1).reshape(-1, u.size)
+            A, g = ev.normal(r)
+            assert np.max(np.abs(A - (Jf.conj().T @ Jf).real)) < 1e-12 * np.max(np.abs(A))
+            assert np.max(np.abs(g - (Jf.conj().T @ r.ravel()).real)) < 1e-12 * np.max(np.abs(g))
+
+
+def _rayleigh_chain():
+    """:func:`chain` with Rayleigh damping ``C = c + 0.5 M + 2e-4 K``."""
+    return structure_from_dict({
+        "name": "chain2-rayleigh", "unknown": ["mass", "damping", "stiffness"], "rayleigh": [0.5, 2e-4],
+        "nodes": [{"id": 0, "x": 0.0}, {"id": 1, "x": 1.0}, {"id": 2, "x": 2.0}],
+        "supports": [{"node": 0, "fix": ["x"]}],
+        "elements": [{"type": "mass", "nodes": [1], "dir": "x", "m": 1.0},
+                     {"type": "mass", "nodes": [2], "dir": "x", "m": 0.5},
+                     {"type": "spring", "nodes": [0, 1], "dir": "x", "k": 1.0e4},
+                     {"type": "spring", "nodes": [1, 2], "dir": "x", "k": 5.0e3},
+                     {"type": "dashpot", "nodes": [0, 1], "dir": "x", "c": 10.0},
+                     {"type": "dashpot", "nodes": [1, 2], "dir": "x", "c": 4.0}]})
+
+
 def test_frequency_domain_refuses_a_single_line():
     """A single line excites too little: rank deficiency, naming parameters."""
     from structbench.identifier.errors import IdentificationError
