@@ -73,13 +73,16 @@ def overlap_correlation(window: np.ndarray, hop: int, segments: int) -> float:
     return float(1.0 + 2.0 * np.sum((1.0 - j / segments) * rho))
 
 
-def _transform(x: np.ndarray, window: np.ndarray, hop: int, detrend: bool, w_fft: np.ndarray) -> np.ndarray:
-    """Windowed rfft of the segments of ``x`` (..., n): (..., K, m)."""
+def _transform(x: np.ndarray, window: np.ndarray, hop: int, detrend: bool) -> np.ndarray:
+    """Windowed rfft of the segments of ``x`` (..., n): (..., K, m), each
+    segment's mean removed before the window when ``detrend``."""
     frames = sliding_window_view(x, window.size, axis=-1)[..., ::hop, :]
-    out = sfft.rfft(frames * window, axis=-1)
-    if detrend:  # rfft(w (s - mean)) = rfft(w s) - mean rfft(w)
-        out -= frames.mean(axis=-1)[..., None] * w_fft
-    return out
+    if detrend:
+        segments = frames - frames.mean(axis=-1)[..., None]
+        segments *= window
+    else:
+        segments = frames * window
+    return sfft.rfft(segments, axis=-1)
 
 
 def welch(force: np.ndarray, responses: np.ndarray, dt: float, window: np.ndarray, hop: int,
@@ -95,8 +98,7 @@ def welch(force: np.ndarray, responses: np.ndarray, dt: float, window: np.ndarra
     n = force.shape[-1]
     if n < L:
         raise ValueError(f"record of {n} samples is shorter than one segment ({L})")
-    w_fft = sfft.rfft(window)
-    F = _transform(force, window, hop, detrend, w_fft)  # (K, m)
+    F = _transform(force, window, hop, detrend)  # (K, m)
     K, m = F.shape
     c = responses.shape[0]
     Fc = np.conj(F)
@@ -104,7 +106,7 @@ def welch(force: np.ndarray, responses: np.ndarray, dt: float, window: np.ndarra
     cross = np.empty((c, m), dtype=complex)
     step = max(1, CHUNK_VALUES // (K * L))
     for lo in range(0, c, step):  # chunks of channels, each transformed at once
-        X = _transform(responses[lo:lo + step], window, hop, detrend, w_fft)
+        X = _transform(responses[lo:lo + step], window, hop, detrend)
         response[lo:lo + step] = np.einsum("ckm,ckm->cm", X.real, X.real) + np.einsum("ckm,ckm->cm", X.imag, X.imag)
         cross[lo:lo + step] = np.einsum("ckm,km->cm", X, Fc)
     factor = overlap_correlation(window, hop, K)
