@@ -14,6 +14,7 @@ time is printed beside it. Target: at most 5 s.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -49,6 +50,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     trace = record(args.channels, args.samples)
+    load = os.getloadavg()[0]
     segment = args.segment * DT if args.segment else None
     cpu, wall = [], []
     for _ in range(args.repeat):
@@ -59,7 +61,8 @@ def main() -> None:
     print(f"{args.channels} channels x {args.samples} samples, segments of {frf.segment} samples, "
           f"{frf.n_averages[0]} averages, {frf.frequency.size} lines")
     print(f"CPU time median {np.median(cpu):.2f} s (min {min(cpu):.2f} s), wall median {np.median(wall):.2f} s "
-          f"over {args.repeat} runs (target: CPU <= 5 s)")
+          f"over {args.repeat} runs (target: CPU <= 5 s); load average {load:.1f} -> {os.getloadavg()[0]:.1f} "
+          f"on {os.cpu_count()} CPUs")
 
 
 if __name__ == "__main__":

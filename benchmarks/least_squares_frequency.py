@@ -31,7 +31,7 @@ one per repetition on ``--jobs`` processes (wall time; median normalized
 RMS parameter error with its 10-90 % spread; coverage of the 95 % intervals).
 
     python benchmarks/least_squares_frequency.py [--structures ...] [--repetitions 100] [--samples 32768]
-        [--cases time displacement velocity acceleration] [--per-repetition] [--jobs 2]
+        [--cases time displacement velocity acceleration] [--per-repetition] [--jobs 2] [--repeat 1]
 
 Measured (Welch segments of 8192 samples, frequency_data.MAX_SEGMENT; a
 2-core machine shared with other jobs at load 12-20, so wall times are
@@ -170,17 +170,25 @@ def run(structure: str, args: argparse.Namespace) -> None:
         keep, domain = CASES[case]
         traces = [trace(c, keep, r, model) for r, c in enumerate(channels)]
         if not args.no_pooled:
-            wall, cpu = time.perf_counter(), time.process_time()
+            load = os.getloadavg()[0]
+            walls, cpus = [], []
             try:
-                result = identify(traces, model, domain=domain)
+                for _ in range(args.repeat):  # the same identification, timed again (load varies)
+                    wall, cpu = time.perf_counter(), time.process_time()
+                    result = identify(traces, model, domain=domain)
+                    walls.append(time.perf_counter() - wall)
+                    cpus.append(time.process_time() - cpu)
             except Exception as err:  # a refusal is a figure too
                 print(f"  {case:12s} pooled: {type(err).__name__}: {err}", flush=True)
             else:
-                wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                wall, cpu = np.median(walls), np.median(cpus)
                 rms, z = score(result, truth)
                 fd = result.details.get("frequency_domain", {})
+                spread = (f" (median of {args.repeat}; min {min(walls):.2f} / {min(cpus):.2f} s)"
+                          if args.repeat > 1 else "")
                 print(f"  {case:12s} pooled ({result.details['domain']['chosen']}): normalized RMS {rms:.5f}, "
-                      f"95 % coverage {np.mean(np.abs(z) < 1.96):.3f}, wall {wall:.2f} s, CPU {cpu:.2f} s"
+                      f"95 % coverage {np.mean(np.abs(z) < 1.96):.3f}, wall {wall:.2f} s, CPU {cpu:.2f} s{spread} "
+                      f"(load {load:.1f} -> {os.getloadavg()[0]:.1f})"
                       + (f"; {fd.get('lines')} lines, {fd.get('zoh_corrections')} ZOH passes" if fd else ""),
                       flush=True)
         if args.per_repetition:
@@ -197,6 +205,13 @@ def run(structure: str, args: argparse.Namespace) -> None:
                   f"on {args.jobs} processes in {wall:.1f} s wall", flush=True)
 
 
+def blas_threads() -> str:
+    """The BLAS libraries' thread counts (as found, nothing set)."""
+    from threadpoolctl import threadpool_info
+    return ", ".join(f"{i['internal_api']} {i['version']} {i['num_threads']}" for i in threadpool_info()
+                     if i["user_api"] == "blas")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--structures", nargs="+", default=["ch3-free-free-beam", "ch3-damped-beam"])
@@ -206,7 +221,9 @@ def main() -> None:
     parser.add_argument("--per-repetition", action="store_true", help="also one identification per repetition")
     parser.add_argument("--no-pooled", action="store_true", help="skip the pooled identification")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--repeat", type=int, default=1, help="time each pooled identification this many times")
     args = parser.parse_args()
+    print(f"{os.cpu_count()} CPUs, BLAS threads: {blas_threads()}; load average {os.getloadavg()[0]:.1f}", flush=True)
     for structure in args.structures:
         run(structure, args)
 

@@ -4,8 +4,8 @@ from the sparsity of the parameters' derivatives.
 
 At a line ``omega`` (rad/s) and force DOF ``f``, with ``Z = K - omega^2 M +
 i omega C`` (n x n), ``Hh = Z^-1`` and the model's receptance column ``hh =
-Hh e_f``, the whitened output error and its derivative with respect to an
-unknown parameter ``p_j`` of the whitened model output are
+Hh e_f``, the whitened output error and the derivative of the whitened
+model output with respect to an unknown parameter ``p_j`` are
 
     r = (h - hh) / sd,    J_j = d (hh / sd) / d p_j = -Hh Z_j hh / sd,
 
@@ -24,7 +24,9 @@ entries ``hh[I_j]``:
 inverse ``Hh`` (``n^3``) is then the largest cost. Padded slots carry ``Q =
 0``. Where ``n`` is at most :data:`DENSE_RATIO` times ``rmax`` the ``y_j``
 are scattered into a dense ``Y`` and ``Hh Y`` taken as one small matrix
-product per line instead (more arithmetic, but at BLAS speed). Only the real part of the complex normal equations is needed:
+product per line instead (more arithmetic, but at BLAS speed).
+
+Only the real part of the complex normal equations is needed:
 
     A = Re(J^H J) = sum_b Jv_b Jv_b^T,   g = Re(J^H r) = sum_b Jv_b rv_b,
 
