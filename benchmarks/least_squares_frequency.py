@@ -33,29 +33,41 @@ RMS parameter error with its 10-90 % spread; coverage of the 95 % intervals).
     python benchmarks/least_squares_frequency.py [--structures ...] [--repetitions 100] [--samples 32768]
         [--cases time displacement velocity acceleration] [--per-repetition] [--jobs 2] [--repeat 1]
 
-Measured (Welch segments of 8192 samples, frequency_data.MAX_SEGMENT; a
-2-core machine shared with other jobs at load 12-20, so wall times are
-inflated and CPU time, single-threaded BLAS, is the speed figure), 100
-repetitions pooled into one identification, the frequency domain:
+Measured on the final code (c45fbe2, 2026-11-26; Welch segments of 8192
+samples, frequency_data.MAX_SEGMENT; ``--repeat 3``, medians; the default
+BLAS threads, 2; a 2-core machine shared with other jobs at load average
+10-12, so wall times are about 1.5 x the CPU times: one thread does the
+work), 100 repetitions pooled into one identification, the frequency domain:
 
-    ch3-damped-beam    velocity only      normalized RMS 0.00090, CPU 7.0 s (wall 14.2 s), 1169 lines, coverage 0.98
-                       acceleration only  0.00048, CPU 11.3 s (wall 23.3 s), 2584 lines, coverage 0.76
-                       displacement only  0.0206, CPU 3.1 s: 111 lines with coherence >= 0.5 (the
-                                          rigid-body drift dominates each displacement's RMS, so its
+    ch3-damped-beam    velocity only      normalized RMS 0.00090, CPU 4.38 s (wall 6.79 s), 1169 lines, coverage 0.978
+                       acceleration only  0.00048, CPU 6.75 s (wall 10.33 s; fastest of 3: CPU 6.32 s,
+                                          wall 9.34 s), 2584 lines, coverage 0.756
+                       displacement only  0.0206, CPU 2.26 s (wall 3.82 s): 111 lines with coherence >= 0.5
+                                          (the rigid-body drift dominates each displacement's RMS, so its
                                           2 % noise buries the flexible response)
-    ch3-free-free-beam velocity only      0.0053, CPU 5.4 s; acceleration only 0.0081, CPU 4.9 s;
-                       displacement only  0.0098, CPU 3.7 s (undamped: the response is never
-                                          stationary and the FRF lines leak; bias dominates)
+    ch3-free-free-beam velocity only      0.00531, CPU 2.91 s (wall 4.53 s); acceleration only 0.00805,
+                                          CPU 3.70 s (wall 5.77 s); displacement only 0.00978, CPU 1.86 s
+                                          (wall 2.86 s) (undamped: the response is never stationary and
+                                          the FRF lines leak; bias dominates)
 
-Leakage sets the floor: with 4096-sample segments the same runs gave
-0.00206 / 0.00111 / 0.054 (damped; CPU 5.6 / 7.5 / 2.3 s) and 0.0095 /
-0.0079 / 0.025 (undamped); 20 repetitions with 16384-sample segments,
-velocities: 0.00055 (damped, CPU 10.9 s), 0.0030 (undamped, CPU 6.4 s).
+The same figures of accuracy as before the speed-up (2e7bcb6: 0.00090 /
+0.00048 / 0.0206 and 0.0053 / 0.0081 / 0.0098; values equal to 4e-12,
+standard errors to 1e-9, relative); its CPU times then were 7.0-7.7 s
+(damped, velocities) and 11.3-12.8 s (accelerations) with one BLAS thread,
+and 49.8 s CPU, 67 s wall for accelerations with the default two at load
+9-10 (docs/least-squares-method.md says why).
 
-Per repetition (one 655 s record each, 10 repetitions, ch3-damped-beam):
+Leakage sets the floor (measured before the speed-up): with 4096-sample
+segments the same runs gave 0.00206 / 0.00111 / 0.054 (damped; CPU 5.6 /
+7.5 / 2.3 s) and 0.0095 / 0.0079 / 0.025 (undamped); 20 repetitions with
+16384-sample segments, velocities: 0.00055 (damped, CPU 10.9 s), 0.0030
+(undamped, CPU 6.4 s).
+
+Per repetition (one 655 s record each, repetitions 0-9, ch3-damped-beam):
 frequency domain from velocities median 0.0080 (p10 0.0069, p90 0.0088),
 coverage 1.000 (its standard errors carry the leakage seen in the line
-variances: too wide); the time domain from every quantity median 0.0072
+variances: too wide; the same on the final code: 0.00802, 0.00694, 0.00879;
+from accelerations 0.00407, p10 0.00336, p90 0.00495, coverage 0.969); the time domain from every quantity median 0.0072
 (p10 0.0024, p90 0.85), coverage 0.787. The chapter 3 harmonic test's
 displacement- and velocity-only figures (0.00218, 0.00134) stay with the
 time domain, which ``auto`` keeps for them (band far below Nyquist).
