@@ -44,7 +44,10 @@ a run add up as independent records):
   shape, noisy, has a low MAC to a strong mode's own even when it is that
   mode: the MAC alone let such second estimates through). Not applied
   where an error is not finite (over ``ROW_CHANNELS`` sensors, or a mode
-  some replicates missed) or ``m < 2``. So are two modes of any shapes whose frequencies and
+  some replicates missed) or ``m < 2``, nor to free responses: there an
+  unresolved pair of unlike shapes goes on to the close-pair fit
+  (:mod:`identifier.modal.close_pairs`), which tells one mode from two by
+  the record itself. So are two modes of any shapes whose frequencies and
   damping ratios agree far more closely than their errors allow for two
   estimates (``|delta omega| < TWIN sqrt(se_a^2 + se_b^2)``, likewise
   ``zeta``): one pole whose shape the record splits in two. The one of
@@ -186,7 +189,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
                           f"{BANDWIDTH:g} zeta)")
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
-        alike = (mac(shapes, shapes) > DUPLICATE_MAC) | same_shape(shapes, shape_std)
+        alike = mac(shapes, shapes) > DUPLICATE_MAC
+        if not decay:  # a free response's unresolved pair is left to the close-pair fit (module docstring)
+            alike |= same_shape(shapes, shape_std)
         se = np.where(np.isfinite(omega_std), omega_std, 0.0)
         sz = np.where(np.isfinite(zeta_std), zeta_std, 0.0)
         for i in np.argsort(-np.asarray(support), kind="stable"):  # the best supported first
