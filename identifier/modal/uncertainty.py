@@ -73,16 +73,17 @@ the orders disagree; for the higher modes of a random response these
 differ by several jackknife errors. So the stated error adds, in
 quadrature, the shape's robust scatter over the mode's stable poles
 (:func:`order_spread`, ``s_l``: 1.4826 times the median absolute deviation,
-because the poles that split one mode at high orders are never the
-reported one), like omega's error adds the scatter of the poles'
-frequencies:
+robust to the poles that split one mode at high orders), like omega's
+error adds the scatter of the poles' frequencies:
 
     std_l^2 = se_l^2 + s_l^2.
 
-And when the part of the shapes out of phase with the reported real shape
-(``o_l``, the median over the poles) stands out of those errors,
-``sum_l o_l^2 / std_l^2 > chi^2_(0.99)(m - 1)``, it is added in
-quadrature too: a real (normal-mode) shape leaves it out, so it is an
+The reported pole can be one of those split poles: when its distance from
+the poles' median shape (``r_l``) stands out of these errors, ``sum_l
+r_l^2 / std_l^2 > chi^2_(0.99)(m - 1)``, it is added in quadrature. And
+when the part of the shapes out of phase with the reported real shape
+(``o_l``, the median over the poles) stands out of the errors so far by
+the same test, it is added too: a real (normal-mode) shape leaves it out, so it is an
 error of the reported shape whenever the structure's modes are real
 (proportional damping, which the updating's FE shapes are), and otherwise
 a sign that another pole (an unmodelled or aliased mode) leaks into this
@@ -106,7 +107,7 @@ from .ssi.covariance import Covariances, project
 from .ssi.hankel import BlockHankel
 from .ssi.poles import Poles
 
-COMPLEX_LEVEL = 0.99  # chi^2 quantile past which the shapes' out-of-phase part is an error, not noise
+STANDS_OUT = 0.999  # chi^2 quantile past which the reported pole's distance or the out-of-phase part is an error
 Target = tuple[tuple[tuple[int, int], ...], float]  # the mode's stable poles (order, index), its omega rad/s
 
 
@@ -253,43 +254,54 @@ def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Tar
     se = np.where(count >= 2, widen * np.sqrt((count - 1) / np.maximum(count, 1) * spread), np.nan)
     shape_se = np.full((channels, len(targets)), np.nan)
     if m:
-        orders, out_of_phase = order_spread(poles, targets)
+        orders, reported, out_of_phase = order_spread(poles, targets)
         shape_se = np.hypot(se[:, 2:].T, orders)
-        complex_part = np.sum((out_of_phase / shape_se) ** 2, axis=0) > chi2.ppf(COMPLEX_LEVEL, max(m - 1, 1))
-        shape_se[:, complex_part] = np.hypot(shape_se, out_of_phase)[:, complex_part]
+        for part in (reported, out_of_phase):  # each where it stands out of the errors so far
+            out = np.sum((part / shape_se) ** 2, axis=0) > chi2.ppf(STANDS_OUT, max(m - 1, 1))
+            shape_se[:, out] = np.hypot(shape_se, part)[:, out]
     return se[:, 0], se[:, 1], groups - count[:, 0], shape_se
 
 
-def order_spread(poles: dict[int, Poles], targets: list[Target]) -> tuple[np.ndarray, np.ndarray]:
+def order_spread(poles: dict[int, Poles], targets: list[Target]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the replicates do not see of one pole's shape, per entry (m, k)
     of each target mode's reported normalisation (module docstring): with
     ``b_j`` the real shapes (:func:`identifier.modal.ssi.poles.real_shapes`)
     of the mode's stable poles ``j`` (its ``targets`` members; shapes in the
-    channels' units, as the poles hold them), each scaled by least squares
-    to their entry-wise median ``b~``, the shape's robust scatter over the
-    model orders and the median out-of-phase part,
+    channels' units, as the poles hold them) and ``b_r`` that of the
+    reported pole (of all orders' poles the one nearest the mode's median
+    omega, which is how :func:`identifier.modal.stabilisation.select_modes`
+    picks it), each scaled by least squares to the members' entry-wise
+    median ``b~``, the shape's robust scatter over the model orders, the
+    reported pole's distance from the median and the median out-of-phase
+    part,
 
-        s_l = 1.4826 median_j |b_jl - median_j b_jl|,    o_l = median_j |Im_jl|,
+        s_l = 1.4826 median_j |b_jl - b~_l|,   r_l = |b_rl - b~_l|,   o_l = median_j |Im_jl|,
 
     ``Im_j`` the imaginary part of pole ``j``'s complex shape turned by its
-    principal angle, over its largest entry. Both zero for a mode of a
-    single real pole."""
+    principal angle, over its largest entry. The median absolute deviation
+    is robust to the poles that split one mode at high orders; ``r``
+    covers the reported pole when it is one of them. All zero for a mode of
+    a single real pole."""
     out = np.zeros((next(iter(poles.values())).shapes.shape[0], len(targets)))
-    quad = np.zeros_like(out)
-    for k, (members, _) in enumerate(targets):
-        z = np.column_stack([poles[n].shapes[:, j] for n, j in members])  # (m, t)
+    quad, far = np.zeros_like(out), np.zeros_like(out)
+    for k, (members, w) in enumerate(targets):
+        nearest = [(abs(p.omega - w).min(), n, int(np.argmin(abs(p.omega - w)))) for n, p in poles.items()
+                   if p.omega.size]
+        _, n_r, j_r = min(nearest)
+        z = np.column_stack([poles[n].shapes[:, j] for n, j in ((n_r, j_r), *members)])  # (m, 1 + t)
         re, im = z.real, z.imag
         theta = 0.5 * np.arctan2(2 * np.sum(re * im, 0), np.sum(re**2, 0) - np.sum(im**2, 0))
         turned = z * np.exp(-1j * theta)
         peak = turned.real[np.argmax(np.abs(turned.real), axis=0), np.arange(z.shape[1])]
         peak = np.where(peak == 0, 1.0, peak)
-        b, out_of_phase = turned.real / peak, turned.imag / peak
-        centre = np.median(b, axis=1)
+        b, out_of_phase = turned.real / peak, turned.imag[:, 1:] / peak[1:]
+        centre = np.median(b[:, 1:], axis=1)
         b = b * (centre @ b / np.maximum(np.sum(b * b, axis=0), 1e-300))
-        mad = 1.4826 * np.median(np.abs(b - np.median(b, axis=1, keepdims=True)), axis=1)
-        out[:, k], quad[:, k] = mad, np.median(np.abs(out_of_phase), axis=1)
-    return out, quad
-    return out
+        centre = np.median(b[:, 1:], axis=1)
+        mad = 1.4826 * np.median(np.abs(b[:, 1:] - centre[:, None]), axis=1)
+        out[:, k], far[:, k] = mad, np.abs(b[:, 0] - centre)
+        quad[:, k] = np.median(np.abs(out_of_phase), axis=1)
+    return out, far, quad
 
 
 def carried(shape_se: np.ndarray, source: np.ndarray, refined: np.ndarray) -> np.ndarray:
