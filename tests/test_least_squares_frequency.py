@@ -21,9 +21,9 @@ from structbench.models.toml_model import structure_from_dict
 OMEGA = np.linspace(20.0, 250.0, 60)  # rad/s: both modes (63, 159 rad/s) inside
 
 
-def chain():
-    """Two masses in a chain from a wall: m 1, 0.5 kg; k 1e4, 5e3 N/m; c 10, 4 N s/m (all unknown)."""
-    return structure_from_dict({
+def _chain_dict() -> dict:
+    """The model file of :func:`chain`."""
+    return {
         "name": "chain2", "unknown": ["mass", "damping", "stiffness"],
         "nodes": [{"id": 0, "x": 0.0}, {"id": 1, "x": 1.0}, {"id": 2, "x": 2.0}],
         "supports": [{"node": 0, "fix": ["x"]}],
@@ -32,7 +32,12 @@ def chain():
                      {"type": "spring", "nodes": [0, 1], "dir": "x", "k": 1.0e4},
                      {"type": "spring", "nodes": [1, 2], "dir": "x", "k": 5.0e3},
                      {"type": "dashpot", "nodes": [0, 1], "dir": "x", "c": 10.0},
-                     {"type": "dashpot", "nodes": [1, 2], "dir": "x", "c": 4.0}]})
+                     {"type": "dashpot", "nodes": [1, 2], "dir": "x", "c": 4.0}]}
+
+
+def chain():
+    """Two masses in a chain from a wall: m 1, 0.5 kg; k 1e4, 5e3 N/m; c 10, 4 N s/m (all unknown)."""
+    return structure_from_dict(_chain_dict())
 
 
 def closed_form(model, omega: np.ndarray) -> np.ndarray:
@@ -136,16 +141,7 @@ def test_output_error_jacobian_matches_finite_differences():
 
 def _rayleigh_chain():
     """:func:`chain` with Rayleigh damping ``C = c + 0.5 M + 2e-4 K``."""
-    return structure_from_dict({
-        "name": "chain2-rayleigh", "unknown": ["mass", "damping", "stiffness"], "rayleigh": [0.5, 2e-4],
-        "nodes": [{"id": 0, "x": 0.0}, {"id": 1, "x": 1.0}, {"id": 2, "x": 2.0}],
-        "supports": [{"node": 0, "fix": ["x"]}],
-        "elements": [{"type": "mass", "nodes": [1], "dir": "x", "m": 1.0},
-                     {"type": "mass", "nodes": [2], "dir": "x", "m": 0.5},
-                     {"type": "spring", "nodes": [0, 1], "dir": "x", "k": 1.0e4},
-                     {"type": "spring", "nodes": [1, 2], "dir": "x", "k": 5.0e3},
-                     {"type": "dashpot", "nodes": [0, 1], "dir": "x", "c": 10.0},
-                     {"type": "dashpot", "nodes": [1, 2], "dir": "x", "c": 4.0}]})
+    return structure_from_dict(_chain_dict() | {"name": "chain2-rayleigh", "rayleigh": [0.5, 2e-4]})
 
 
 def test_frequency_domain_refuses_a_single_line():
