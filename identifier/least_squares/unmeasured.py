@@ -372,8 +372,8 @@ def solve(model: Structure, lines: Lines, p0: np.ndarray | None = None,
         p0, info = start(eq, lines)
     p, std, bad, more = fit(eq, lines, p0)
     unmeasured = [model.dofs[j] for j in np.flatnonzero(~np.isfinite(lines.var).any(axis=0))]
+    labels = [q.label for q, m in zip(model.parameters, model.kind_mask()) if m]
     if bad.all():
-        labels = [q.label for q, m in zip(model.parameters, model.kind_mask()) if m]
         raise IdentificationError(
             f"no parameter is determined by the measured DOF (rank {more['rank']} of {bad.size}): "
             f"{', '.join(labels[:12])}{' ...' if len(labels) > 12 else ''} undetermined; unmeasured DOF "
@@ -381,6 +381,5 @@ def solve(model: Structure, lines: Lines, p0: np.ndarray | None = None,
             "measure more of them", field="channels")
     if refuse:
         check_support(more, int(np.sum(~bad)), unmeasured)
-    labels = [q.label for q, m in zip(model.parameters, model.kind_mask()) if m]
     return p, std, bad, info | more | {"undetermined": [lab for lab, b in zip(labels, bad) if b]}
 
