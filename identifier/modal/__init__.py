@@ -58,6 +58,15 @@ Steps (each its own module):
    ``details["rejected"]`` with their reason; ``details["warnings"]`` says
    when a stationary record is under two periods of its lowest frequency.
 
+Each channel's mean is removed from a stationary record (neither a free
+decay nor labelled a free response: stationary covariances are about the
+mean; a sensor's static offset, a few times the response's RMS, otherwise
+adds the constant ``c^2`` to every ``R_l``, keeps every lag "above its
+noise" and fills the Hankel matrix with a pole at zero frequency); a free
+response keeps its mean (an offset there is a pole at ``z = 1`` that SSI
+fits as such, and the mean of a decay, or of an undamped free response
+over a record of no whole number of periods, is no offset).
+
 Assumptions: a linear time-invariant structure, the response either a free
 decay or stationary (unmeasured broadband excitation), white sensor noise;
 no force channel is needed or used. Several traces of one run (several
@@ -179,6 +188,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     refs = reference_channels(m, r)
     decay = all(is_free_decay(y) for y in records)
     free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
+    if not free:  # a stationary record's mean (a sensor offset, a static deflection) is no mode: removed
+        records = [y - y.mean(axis=1, keepdims=True) for y in records]
     screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt)  # a free response
     # of an undamped structure is a sum of sinusoids: only stationary records are searched for harmonics
     records = screened.records

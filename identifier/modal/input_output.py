@@ -6,7 +6,16 @@ force (:func:`identifier.frf.estimate`, coherence and random errors) with
 those poles as the start of a pole-residue fit (:mod:`.residues`: the
 exact zero-order-hold terms, residues linear, poles refined by variable
 projection, each line weighted by ``1 / (|H| eps)``, ``eps`` its random
-error from the coherence). With the driving-point residue (a response at the
+error from the coherence). The Welch estimate is the FRF smoothed by the
+segments' spectral window; the fitted model is smoothed alike, to second
+order (:func:`.residues.window_moment`: without it a Hann segment of 8
+lines per half-power bandwidth widens a resonance, zeta +0.4 %, twice its
+standard error on a 120 s random test of a 1-DOF oscillator). The refined
+poles get standard errors (``omega_std``, ``damping_std``) from the
+Gauss-Newton covariance with the residues free, scaled by the misfit
+(Welch lines of 50 % overlapping Hann segments treated as independent;
+1-DOF oscillators under white force, 120 s, 2-5 % noise: RMS z-scores
+0.8-1.05). With the driving-point residue (a response at the
 force's node and direction)
 
     psi_r,j^2 = 2 i omega_d,r R_r,jj,   psi_r,i = 2 i omega_d,r R_r,ij / psi_r,j,
@@ -49,6 +58,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from scipy.signal import get_window
 
 from ..errors import IdentificationError
 from ..frf import estimate
@@ -144,12 +154,15 @@ def analyse(traces: Sequence[Trace], channels: list[Channel], omega: np.ndarray,
         out["shape_scaling"] = "none: too few FRF lines in the modes' band"
         return out
     orders = np.array([rf.ORDERS[c.quantity] for c in channels])
-    result, moved = rf.refine(w[band], H, sigma, dt, rf.poles_of(omega, zeta), orders)
+    mu2 = rf.window_moment(get_window(frf.window, frf.segment, fftbins=True), dt) if frf.analysis == "welch" \
+        else 0.0  # the Welch estimate's smoothing of the resonances, fitted with them
+    result, moved = rf.refine(w[band], H, sigma, dt, rf.poles_of(omega, zeta), orders, mu2=mu2)
     if not moved.all():
         warnings.append(f"{int((~moved).sum())} pole(s) not refined by the FRF fit (solver failed or a "
                         "bound reached: a mode the FRFs do not carry): their SSI poles are used")
     lam = result.poles
     out.update({"omega": np.abs(lam).tolist(), "damping": (-lam.real / np.abs(lam)).tolist(),
+                "omega_std": result.omega_std.tolist(), "damping_std": result.zeta_std.tolist(),
                 "poles_refined": moved.tolist(), "segment_s": frf.segment * dt, "analysis": frf.analysis,
                 "band": [float(w[band].min()), float(w[band].max())], "lines": int(band.sum()),
                 "misfit": result.misfit.tolist(),

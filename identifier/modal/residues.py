@@ -70,13 +70,17 @@ class Fit:
     """A pole-residue fit: ``poles`` (k,) complex rad/s, ``residues`` (c, k)
     complex displacement residues (m/N/s per mode and channel), ``residual``
     (c, 4) real residual-term coefficients (zero-padded), ``model`` (c, m) the fitted FRF,
-    ``misfit`` (c,) the weighted RMS residual (1: at the noise level)."""
+    ``misfit`` (c,) the weighted RMS residual (1: at the noise level);
+    after :func:`refine`, ``omega_std`` rad/s and ``zeta_std`` (k,) of the
+    refined poles (NaN for one that was not refined), else ``None``."""
 
     poles: np.ndarray
     residues: np.ndarray
     residual: np.ndarray
     model: np.ndarray
     misfit: np.ndarray
+    omega_std: np.ndarray | None = None
+    zeta_std: np.ndarray | None = None
 
 
 def poles_of(omega: np.ndarray, zeta: np.ndarray) -> np.ndarray:
@@ -85,15 +89,21 @@ def poles_of(omega: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     return -zeta * omega + 1j * omega * np.sqrt(np.clip(1.0 - zeta**2, 1e-12, None))
 
 
-def _design(w: np.ndarray, dt: float, poles: np.ndarray, order: int) -> np.ndarray:
+def _design(w: np.ndarray, dt: float, poles: np.ndarray, order: int, mu2: float = 0.0) -> np.ndarray:
     """Real design (2m, 2k + e) of one channel of derivative ``order`` at
     ``w`` (m,) rad/s: per pole the columns of ``Re R`` and ``Im R``, then the
-    residual terms; rows: real parts, then imaginary parts."""
+    residual terms; rows: real parts, then imaginary parts. ``mu2``
+    (rad/s)^2: each pole's term ``g`` is the Welch estimate's expectation
+    to second order, ``g + mu2 g_ww / 2`` (see :func:`window_moment`)."""
     z = np.exp(1j * w * dt)[:, None]
     lam = poles[None, :]
     p = np.exp(lam * dt)
-    g = lam**order * (p - 1.0) / (lam * (z - p))  # R's term
-    gc = np.conj(lam)**order * (np.conj(p) - 1.0) / (np.conj(lam) * (z - np.conj(p)))  # conj(R)'s term
+
+    def term(lam: np.ndarray, p: np.ndarray) -> np.ndarray:  # a / (z - p), plus mu2 / 2 times its d2/domega2
+        a = lam**order * (p - 1.0) / lam
+        return a / (z - p) - 0.5 * mu2 * a * dt**2 * z * (z + p) / (z - p) ** 3
+
+    g, gc = term(lam, p), term(np.conj(lam), np.conj(p))  # R's term, conj(R)'s term
     hold = (1.0 - np.exp(-1j * w * dt)) / (1j * w * dt)
     powers = sorted({order, order - 2} - {0})
     extra = np.stack([np.ones_like(w), np.exp(-1j * w * dt)] + [hold * (1j * w) ** e for e in powers], axis=1)
@@ -102,12 +112,14 @@ def _design(w: np.ndarray, dt: float, poles: np.ndarray, order: int) -> np.ndarr
 
 
 def fit(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
-        orders: np.ndarray) -> Fit:
+        orders: np.ndarray, mu2: float = 0.0) -> Fit:
     """Residues of ``H`` (c, m) at ``w`` (m,) rad/s for fixed ``poles`` (k,);
     ``sigma`` (c, m) the standard deviation of each line (``inf``: unused);
-    ``orders`` (c,) each channel's derivative (0, 1, 2). Batched over channels."""
+    ``orders`` (c,) each channel's derivative (0, 1, 2); ``mu2`` the Welch
+    window's spectral second moment (:func:`window_moment`; 0: none).
+    Batched over channels."""
     k = poles.size
-    by_order = {int(o): _design(w, dt, poles, int(o)) for o in set(orders.tolist())}
+    by_order = {int(o): _design(w, dt, poles, int(o), mu2) for o in set(orders.tolist())}
     A = np.zeros((len(orders), 2 * w.size, 2 * k + 4))  # residual columns padded to 4
     for i, o in enumerate(orders):
         A[i, :, :by_order[int(o)].shape[1]] = by_order[int(o)]
@@ -147,7 +159,7 @@ def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np.ndarray,
-           orders: np.ndarray, max_move: float = 0.05) -> tuple[Fit, np.ndarray]:
+           orders: np.ndarray, max_move: float = 0.05, mu2: float = 0.0) -> tuple[Fit, np.ndarray]:
     """:func:`fit` with the poles' ``omega`` and ``zeta`` fitted too
     (variable projection, bounded trust-region Gauss-Newton from ``poles``:
     each ``omega`` within ``max_move`` (relative) of its start, each ``zeta``
@@ -161,7 +173,7 @@ def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np
     x0 = np.clip(np.concatenate([np.ones(k), zeta0]), lower * (1 + 1e-9), upper * (1 - 1e-9))
 
     def residual(x: np.ndarray) -> np.ndarray:
-        f = fit(w, H, sigma, dt, poles_of(omega0 * x[:k], x[k:]), orders)
+        f = fit(w, H, sigma, dt, poles_of(omega0 * x[:k], x[k:]), orders, mu2)
         r = (np.concatenate([(H - f.model).real, (H - f.model).imag], axis=1)
              / np.concatenate([sigma, sigma], axis=1))
         return np.where(np.isfinite(r), r, 0.0).ravel()
@@ -170,12 +182,47 @@ def refine(w: np.ndarray, H: np.ndarray, sigma: np.ndarray, dt: float, poles: np
         sol = least_squares(residual, x0, bounds=(lower, upper), max_nfev=60 * (k + 1),
                             x_scale=np.concatenate([np.full(k, 1e-3), 0.1 * np.maximum(x0[k:], 1e-3)]))
     except (ValueError, np.linalg.LinAlgError):
-        return fit(w, H, sigma, dt, poles, orders), np.zeros(k, bool)
+        return fit(w, H, sigma, dt, poles, orders, mu2), np.zeros(k, bool)
     free = (sol.x > lower + 1e-6 * (upper - lower)) & (sol.x < upper - 1e-6 * (upper - lower))
     refined = free[:k] & free[k:] & (sol.status > 0)
     omega = np.where(refined, omega0 * sol.x[:k], omega0)
     zeta = np.where(refined, sol.x[k:], zeta0)
-    return fit(w, H, sigma, dt, np.where(refined, poles_of(omega, zeta), poles), orders), refined
+    out = fit(w, H, sigma, dt, np.where(refined, poles_of(omega, zeta), poles), orders, mu2)
+    std = _pole_std(sol.jac, sol.fun, int(np.isfinite(sigma).sum()), orders, k)
+    out.omega_std = np.where(refined, omega0 * std[:k], np.nan)
+    out.zeta_std = np.where(refined, std[k:], np.nan)
+    return out, refined
+
+
+def window_moment(window: np.ndarray, dt: float) -> float:
+    """Second moment ``mu2`` (rad/s)^2 of a Welch segment's spectral window
+    ``|W(nu)|^2 / int |W|^2`` for the window samples ``window`` (N,) at
+    ``dt`` s, by Parseval ``mu2 = sum (w_(n+1) - w_n)^2 / (dt^2 sum w_n^2)``
+    (Hann: ``4 pi^2 / (3 (N dt)^2)``). For a force whose spectrum is flat
+    across a mode, the expected cross spectrum is the true one convolved with
+    that window, so the expected H1 is ``H + mu2 H_ww / 2 + ...`` (the next
+    term, ``mu4 H_wwww / 24``, is ``(mu2 / (zeta omega)^2)^2`` smaller): a
+    resonance looks wider, by about ``mu2 / (zeta omega)^2 / 2`` in zeta
+    (Hann, 8 lines per half-power bandwidth: 0.4 % of zeta)."""
+    w = np.asarray(window, float)
+    return float(np.sum(np.diff(w) ** 2) / (dt**2 * np.sum(w**2)))
+
+
+def _pole_std(J: np.ndarray, r: np.ndarray, lines: int, orders: np.ndarray, k: int) -> np.ndarray:
+    """Standard errors (2 k,) of the variable-projection parameters from the
+    Jacobian ``J`` (2 c m, 2 k) of the weighted residual ``r`` at the
+    solution (the residues eliminated: the Gauss-Newton covariance of the
+    poles with the residues free), ``s^2 (J^T J)^-1``, ``s^2 = |r|^2 /
+    (2 lines - parameters)`` (the misfit, so that weights right only up to
+    a common factor still give the right scale); ``lines`` (complex) FRF
+    values used, ``orders`` (c,) the channels' derivatives (their residual
+    terms count as parameters). Fails (too small) where the lines' errors
+    are correlated more than the Welch segments' overlap makes them (see
+    :mod:`identifier.modal.input_output`)."""
+    params = 2 * k + 2 * k * orders.size + sum(2 + len({int(o), int(o) - 2} - {0}) for o in orders)
+    s2 = float(r @ r) / max(2 * lines - params, 1)
+    cov = np.linalg.pinv(J.T @ J) * s2
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 @dataclass
