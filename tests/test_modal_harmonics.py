@@ -109,6 +109,21 @@ def test_a_weak_harmonic_in_a_modes_band_is_never_a_mode():
     assert len(listed) == 1 and listed[0]["test"] in ("damping", "kurtosis+damping", "line")
 
 
+def test_a_harmonic_found_through_its_poles_is_subtracted_and_takes_no_model_order():
+    """The weak harmonic above is found only through its SSI poles, which took
+    model orders from the modes: the record is identified again with it
+    subtracted, so that the final stabilisation diagram holds no stable pole
+    at it, and the harmonic is still listed with its amplitude."""
+    y = records(1, True, harmonics=((25.25, 1.0),))
+    run = identify([trace(y, DT, "weak")], uncertainty="off").to_dict()
+    diagram = run["details"]["stabilisation"]
+    at = (np.abs(np.array(diagram["omega"]) - 25.25) < 0.02) & np.array(diagram["stable"])
+    assert not at.any(), np.array(diagram["zeta"])[at]
+    listed = [h for h in run["details"]["harmonics"] if abs(h["omega"] - 25.25) < 0.01]
+    steady = np.abs(frf_velocity(OMEGA, ZETA, SHAPES, SHAPES[0], 25.25))  # m/s per N at each sensor
+    assert len(listed) == 1 and np.array(listed[0]["amplitude"]) == pytest.approx(steady, rel=0.1)
+
+
 def test_a_pole_fitted_to_a_line_is_told_from_a_mode_by_its_peak():
     """The ``line`` test (_pole_line) on a periodogram of exponential scatter
     (a random response's): a broad mode (half-width 80 lines) with a line 60

@@ -6,7 +6,10 @@ Steps (each its own module):
    spectral lines whose band-filtered response has the kurtosis of a
    sinusoid (1.5, a random response's is 3) are subtracted from the
    records; after step 3, SSI modes of near-zero damping at their orders
-   whose band kurtosis is low are dropped too. Both are listed in
+   whose band kurtosis is low are dropped too (and the other tests of
+   :func:`identifier.modal.harmonics.confirm`); when these find any, the
+   record is identified again with them subtracted as well, since each
+   took model orders from the modes. All are listed in
    ``details["harmonics"]``, never among the modes;
 1. lagged output covariances ``R_l = <y_{k+l} y_ref,k^T>``, l >= 1, summed per
    sample group by FFT (:mod:`identifier.modal.ssi.covariance`); white sensor noise
@@ -171,7 +174,23 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     (NaN) and no check that replicates find each mode again. Changes nothing
     outside its own work unless the process opted in to tuning
     (:mod:`identifier.modal.runtime`). ``input``: ``auto``, ``on`` or ``off``, the measured force scales
-    the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``)."""
+    the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``). Records in which
+    harmonics turn up only through the SSI modes (:func:`identifier.modal.harmonics.confirm`) are
+    identified again with them subtracted, so that they take no model order from the modes."""
+    options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
+               "references": references, "segments": segments, "min_fraction": min_fraction,
+               "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
+    result, pending = _identify(traces, (), **options)
+    return result if result is not None else _identify(traces, tuple(pending), **options)[0]
+
+
+def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: Model | None, quantity: str,
+              block_rows: int | None, max_order: int, references: int, segments: int, min_fraction: float,
+              drop_unrepeated: bool, refine: str, uncertainty: str, input: str
+              ) -> tuple[Identification | None, list[periodic.Line]]:
+    """:func:`identify` with the harmonics ``known`` subtracted before SSI. Without ``known``,
+    when :func:`identifier.modal.harmonics.confirm` finds harmonics that were not subtracted: no
+    result and those harmonics, for a second pass."""
     input_output.check(input, traces)
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
@@ -190,7 +209,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
     if not free:  # a stationary record's mean (a sensor offset, a static deflection) is no mode: removed
         records = [y - y.mean(axis=1, keepdims=True) for y in records]
-    screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt)  # a free response
+    screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt, known)  # a free response
     # of an undamped structure is a sum of sinusoids: only stationary records are searched for harmonics
     records = screened.records
     f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
@@ -237,6 +256,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
             screened, dt, np.array([md.omega for md in modes]),
             np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),
             np.array([md.zeta for md in modes])) if not free else (np.zeros(len(modes), bool), [])
+        if not known and (pending := periodic.unsubtracted(found, screened)):
+            return None, pending  # they took model orders: again with them subtracted
         modes = [md for md, h in zip(modes, periodic_modes) if not h]
         fits = [fit[md.order, md.index] for md in modes]
         shapes = np.column_stack([by_order[md.order].shapes[:, md.index] for md in modes]) if modes \
@@ -253,7 +274,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                     np.array([md.support for md in modes]),
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
-                    errors=replicates is not None, shape_std=shape_se)
+                    errors=replicates is not None, shape_std=shape_se, spectrum=None if free else (records, dt))
     if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
         # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)
@@ -299,7 +320,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
                  "warnings": _warnings(free, f_low, length),
-                 "stabilisation": _diagram(poles, flags)}))
+                 "stabilisation": _diagram(poles, flags)})), []
 
 
 def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray, np.ndarray]:

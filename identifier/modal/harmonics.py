@@ -94,7 +94,8 @@ SSI mode (about one such peak in ten), and a mode of under ``STILL`` decay times
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -123,18 +124,28 @@ def _merge(found: list[Line], tol: float) -> list[Line]:
     return sorted(out, key=lambda x: x.omega)
 
 
-def screen(records: list[np.ndarray], dt: float) -> Screened:
+def screen(records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> Screened:
     """Each record's lines of kurtosis under ``DOUBTFUL`` (:func:`detect`): those of ``z >= SURE``
-    subtracted from it and in ``lines``, the others in ``doubtful``."""
+    subtracted from it and in ``lines``, the others in ``doubtful``. ``known``: harmonics found
+    before (a first pass's :func:`confirm`), each refitted per record (its phase is the record's),
+    subtracted and listed as found, in place of a detected line within two lines of it."""
+    tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
     cleaned, sure, doubtful = [], [], []
     for y in records:
         found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL]
-        here = [ln for ln in found if ln.z >= SURE]
+        here = [ln for ln in found if ln.z >= SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
+        t = np.arange(y.shape[1]) * dt
+        again = [replace(k, amplitude=fit(y, k.omega, t)) for k in known]
         sure += here
-        doubtful += [ln for ln in found if all(ln is not s for s in here)]
-        cleaned.append(subtract(y, here, dt) if here else y)
-    tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
-    return Screened(cleaned, _merge(sure, tol), _merge(doubtful, tol))
+        doubtful += [ln for ln in found if ln.z < SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
+        cleaned.append(subtract(y, here + again, dt) if here or again else y)
+    return Screened(cleaned, _merge(sure, tol) + [replace(k) for k in known], _merge(doubtful, tol))
+
+
+def unsubtracted(found: list[Line], screened: Screened) -> list[Line]:
+    """The harmonics of ``found`` that :func:`screen` did not subtract (those :func:`confirm` found
+    through the SSI modes): they still take model orders of the records' SSI."""
+    return [ln for ln in found if all(ln is not s and ln.omega != s.omega for s in screened.lines)]
 
 
 def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray
