@@ -135,7 +135,7 @@ def profile(r: np.ndarray, J: np.ndarray, fixed: list[int], n_eff: int) -> tuple
     out = minimize_scalar(lambda x: objective(np.exp(x)), bounds=(lo, hi), method="bounded",
                           options={"xatol": 1e-4})
     best = min((0.0, float(np.exp(out.x)), GAMMA_RANGE[1]), key=objective)  # the search may miss an end
-    return objective(best), best
+    return float(objective(best)), best
 
 
 def stepwise(res: Residuals, labels: list[str], n_eff: int, lower: float, upper: float, level: float = 0.001,
