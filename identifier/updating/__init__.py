@@ -46,6 +46,11 @@ entries without.
 Pairing and the two stages. At the prior the model modes are paired with
 the measured ones by an assignment on ``1 - MAC`` (a small frequency term
 breaks ties): measured mode ``i`` is the model's ``n_i``-th lowest mode.
+Before that, measured modes with a shape that pair best with the same
+model mode and whose shapes agree (MAC >= 0.9) are one mode reported twice:
+the closest is kept, the others are left out and named
+(``details.left_out``; :mod:`.pairing`), since one-to-one pairing would give
+a copy another model mode, with few sensors one of many times its frequency.
 Far from the answer MAC values at a few sensors are no guide, so the
 search from each start keeps these mode numbers (the ``n_i``-th lowest model
 mode, whatever its shape) and uses the reference-entry shape scaling of
@@ -148,13 +153,16 @@ sensors of the results file, by (node, direction)).
 Fails (:class:`~structbench.identifier.IdentificationError` naming the item)
 when no modal data are given, a measured DOF is not a free DOF of the model,
 the model is not a finite-element :class:`~structbench.models.Structure`,
-or no parameter of the chosen kinds exists. An undetermined problem does not
-fail: it is reported.
+or no parameter of the chosen kinds exists, and when every parameter ends
+on a bound (no answer: the error names the misfits and the measured modes
+of the largest eigenvalue residuals at the prior with their pairs). An
+undetermined problem does not fail: it is reported.
 
 Modules: :mod:`.data` (modal data in), :mod:`.sensitivity` (modes and
 their derivatives), :mod:`.residuals`, :mod:`.modal_update` (updating from
 modes, the stepwise change search of :mod:`.localise`),
-:mod:`.frf_data`, :mod:`.frf_residuals` and :mod:`.frf_update` (from FRFs),
+:mod:`.pairing` (modes reported twice), :mod:`.frf_data`,
+:mod:`.frf_residuals` and :mod:`.frf_update` (from FRFs),
 :mod:`.flow` (the shared flow) and :mod:`.solve` (least squares, weight,
 identifiability, errors). Imports only :mod:`structbench.models`,
 scipy and numpy: never the harness, and never the truth.

@@ -158,3 +158,18 @@ def estimates(model: Structure, sel: np.ndarray, p0: np.ndarray, alpha: np.ndarr
                                 float(v0 * (1 + a)), None if void else float(s), float(v0))
               for j, v0, a, s, void in zip(sel, p0, alpha, std, err.void)]
     return params, [p.label for p, e in zip(params, edge) if e]
+
+
+def refuse_on_bounds(labels: list[str], lo: float, hi: float, r_prior: np.ndarray, r_answer: np.ndarray,
+                     hint: str = "") -> None:
+    """Raise :class:`IdentificationError`: every parameter ended on a bound of
+    ``alpha`` in ``[lo, hi]``, which is no answer (the data cannot be fitted
+    by the prior's model within the bounds: most often modes paired wrongly
+    or a wrong model). Names the misfits ``|r|^2`` at the prior and at the
+    bound and the ``hint`` (what the residual kind knows of the cause)."""
+    cost = [float(np.sum(np.nan_to_num(r, posinf=1e150, neginf=-1e150) ** 2)) for r in (r_prior, r_answer)]
+    raise IdentificationError(
+        f"every parameter ({len(labels)}: {', '.join(labels[:3])}{', ...' if len(labels) > 3 else ''}) ended on a "
+        f"bound of alpha [{lo:g}, {hi:g}], which is no answer (misfit {cost[0]:.3g} at the prior, {cost[1]:.3g} "
+        "there): the prior's model cannot fit these data within the bounds; check the data's modes and their "
+        "pairing" + (f" ({hint})" if hint else "") + ", the model's topology, or the bounds", field="bounds")

@@ -16,10 +16,11 @@ from structbench.models import Structure
 from ..errors import IdentificationError
 from ..io.results import Identification
 from .data import ModalData
-from .flow import SEARCH_TOL, checked, dof_indices, estimates, selection, solve, starting_points
+from .flow import SEARCH_TOL, checked, dof_indices, estimates, refuse_on_bounds, selection, solve, starting_points
 from .frf_data import FrfData
 from .frf_residuals import ETAS, Combined, FrfResiduals, resonant_lines
 from .modal_update import as_data, with_shape_std
+from .pairing import deduplicated
 from .residuals import Residuals
 from .sensitivity import AffineModel
 from .solve import Fit, fit, identifiability
@@ -90,10 +91,12 @@ def update_frf(model: Structure, frf: FrfData, kinds: str | Sequence[str] | None
     res_frf = FrfResiduals(affine, frf, forces, damping, 0.0, keep)
     if res_frf.n_res == 0:
         raise IdentificationError(f"{frf.source}: no FRF line left to update from", field="frf")
-    measured = None
+    measured, left_out = None, []
     res: Any = res_frf
     if modal is not None:
         measured = with_shape_std(as_data(modal).select(None if modes is None else list(modes)), shape_std)
+        measured, left_out = deduplicated(Residuals(AffineModel(model, sel, _at(model, measured)), measured),
+                                          measured, None if modes is None else list(modes))
     elif natural is True or (natural == "auto" and _underdetermined(res_frf, labels, rank_tol)):
         measured = _natural(frf)
     if measured is not None:
@@ -119,6 +122,8 @@ def update_frf(model: Structure, frf: FrfData, kinds: str | Sequence[str] | None
     alpha, err, ev = out.final.alpha, out.err, out.ev
     p0 = affine.p0[sel]
     params, at_bound = estimates(model, sel, p0, alpha, err, lower, upper)
+    if len(at_bound) == sel.size:
+        refuse_on_bounds(labels, lo, hi, out.prior.r, ev.r)
     M, K = affine.matrices(alpha)
     lam, _ = affine.modes(M, K, min(affine.n, 12))
     excluded = [float(w) for w in frf.omega[~keep]]
@@ -139,7 +144,7 @@ def update_frf(model: Structure, frf: FrfData, kinds: str | Sequence[str] | None
                    "costs": [f.cost for f in out.fits]},
     }
     if measured is not None:
-        details |= {"modal": measured.source, "modes": int(measured.lam.size),
+        details |= {"modal": measured.source, "modes": int(measured.lam.size), "left_out": left_out,
                     "natural_frequencies": np.sqrt(measured.lam).tolist(),
                     "natural_frequencies_std": (measured.lam_std / (2 * np.sqrt(measured.lam))).tolist()}
     final = out.final

@@ -15,8 +15,9 @@ from ..errors import IdentificationError
 from ..io.results import Identification, ParameterEstimate
 from . import data as modal_data
 from .data import ModalData
-from .flow import SEARCH_TOL, checked, dof_indices, estimates, selection, solve, starting_points
+from .flow import SEARCH_TOL, checked, dof_indices, estimates, refuse_on_bounds, selection, solve, starting_points
 from .localise import stepwise
+from .pairing import deduplicated
 from .residuals import Residuals
 from .sensitivity import AffineModel
 from .solve import Fit, fit
@@ -69,10 +70,15 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     labels = [model.parameters[j].label for j in sel]
     affine = AffineModel(model, sel, dof_indices(model, measured.dofs, measured.source, "measured DOF"))
     res = Residuals(affine, measured)
+    measured, left_out = deduplicated(res, measured, None if modes is None else list(modes))
+    if left_out:
+        res = Residuals(affine, measured)
     lower, upper = np.full(sel.size, lo), np.full(sel.size, hi)
     if localise:
-        return _localised(model, sel, labels, affine, res, measured, lo, hi, float(level), tol, int(max_nfev),
-                          repetition, tests)
+        found = _localised(model, sel, labels, affine, res, measured, lo, hi, float(level), tol, int(max_nfev),
+                           repetition, tests)
+        found.details["left_out"] = left_out
+        return found
     search = Residuals(affine, measured, "entry")
     search.fix_pairs(res(np.zeros(sel.size)).pairs)
 
@@ -87,6 +93,8 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
     alpha = final.alpha
     p0 = affine.p0[sel]
     params, at_bound = estimates(model, sel, p0, alpha, err, lower, upper)
+    if len(at_bound) == sel.size:
+        refuse_on_bounds(labels, lo, hi, prior.r, ev.r, _worst_pairs(res, left_out))
     stated = res.stated
     details = {
         "data": measured.source, "modes": int(measured.lam.size), "sensors_dof": [list(d) for d in measured.dofs],
@@ -96,7 +104,7 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
         "regularisation": {"rule": rule, "weight": mu, "floor": floor, "reason": why},
         "identifiability": report, "std_errors": err.form, "misfit": err.extra["misfit"],
         "dof": err.extra["dof"], "pairs": (ev.pairs + 1).tolist(), "mac": ev.mac.tolist(),
-        "mode_switches": res.switches + search.switches, "at_bound": at_bound,
+        "mode_switches": res.switches + search.switches, "at_bound": at_bound, "left_out": left_out,
         "starts": {"count": len(fits), "seed": seed, "scatter": scatter, "agreeing": int(agree),
                    "costs": [f.cost for f in fits]},
     }
@@ -108,6 +116,18 @@ def update(model: Structure, data: ModalData | dict | str | Path, kinds: str | S
         iterations=final.nfev, history=[p0.tolist(), [p.value for p in params]],
         misfit_history=[float(np.sqrt(prior.r @ prior.r)), float(np.sqrt(ev.r @ ev.r))],
         omega=omega.tolist(), eigenvalues=ev.lam.tolist(), details=details)
+
+
+def _worst_pairs(res: Residuals, left_out: list[dict]) -> str:
+    """The three measured modes whose eigenvalue residual at the prior is the
+    largest, with the model mode paired to each, and any modes left out."""
+    ev = res(np.zeros(res.model.q))
+    lam = res.model.modes(*res.model.matrices(np.zeros(res.model.q)), res.count)[0]
+    worst = np.argsort(-np.abs(ev.r[:res.k]))[:3]
+    text = "; ".join(f"measured mode {i + 1} ({np.sqrt(res.data.lam[i]):.4g} rad/s) paired with model mode "
+                     f"{ev.pairs[i] + 1} ({np.sqrt(max(lam[ev.pairs[i]], 0.0)):.4g} rad/s), residual "
+                     f"{ev.r[i]:+.3g} standard errors" for i in worst)
+    return text + "".join(f"; {d['text']}" for d in left_out)
 
 
 def _localised(model: Structure, sel: np.ndarray, labels: list[str], affine: AffineModel, res: Residuals,

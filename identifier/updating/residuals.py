@@ -94,14 +94,20 @@ class Residuals:
         return {"eigenvalues": bool(np.all(np.isfinite(self.data.lam_std) & (self.data.lam_std > 0))),
                 "shapes": bool(shaped.size == 0 or np.all(np.isfinite(shaped) & (shaped > 0)))}
 
-    def pair(self, lam: np.ndarray, at_sensors: np.ndarray) -> np.ndarray:
-        """Model mode for each measured one: an assignment minimising
-        ``1 - MAC`` (modes with a shape) plus ``FREQUENCY_TIE |log(lambda ratio)|``."""
+    def cost(self, lam: np.ndarray, at_sensors: np.ndarray) -> np.ndarray:
+        """Pairing cost (c, k) of model modes ``lam`` (c,), shapes ``at_sensors``
+        (m, c), against the measured ones: ``1 - MAC`` (modes with a shape)
+        plus ``FREQUENCY_TIE |log(lambda ratio)|`` (the ratio capped at e^20)."""
         ratio = np.abs(np.log(np.maximum(lam[:, None], 1e-300) / self.data.lam[None, :]))
         cost = FREQUENCY_TIE * np.minimum(ratio, 20.0)
         if self.shaped.any():
             cost[:, self.shaped] += 1.0 - mac(at_sensors, self.b[:, self.shaped])
-        rows, cols = linear_sum_assignment(cost)
+        return cost
+
+    def pair(self, lam: np.ndarray, at_sensors: np.ndarray) -> np.ndarray:
+        """Model mode for each measured one: the one-to-one assignment of
+        least total :meth:`cost`."""
+        rows, cols = linear_sum_assignment(self.cost(lam, at_sensors))
         pairs = np.empty(self.k, dtype=int)
         pairs[cols] = rows
         return pairs
