@@ -87,3 +87,21 @@ def test_the_welch_window_smoothing_is_fitted_with_the_pole():
     assert abs(np.abs(fitted.poles[0]) / OMEGA - 1) < 1e-5
     assert abs(zeta[0] / ZETA - 1) < 2e-4  # the next term: (mu2 / (zeta omega)^2)^2 ~ 1e-4
     assert -plain.poles[0].real / np.abs(plain.poles[0]) / ZETA - 1 > 3e-3  # without: +0.59 %
+
+
+def test_input_poles_reports_the_frf_fits_poles_with_their_errors():
+    # displacement and force, 2 % noise on both, 60 s: the FRF fit's pole
+    # against the closed form, and the run's headline values are that pole's
+    model = oscillator(M, C, K)
+    force = np.random.default_rng(5).standard_normal((60_000, 1))
+    response = respond(model, force, 1e-3)
+    trace = memory_trace(model, response, 1e-3, [("displacement", 1, "x"), ("force", 1, "x")],
+                         noise={"displacement": 0.02, "force": 0.02}, seed=6)
+    ssi = identify([trace], uncertainty="off", input="on")
+    io = identify([trace], uncertainty="off", input="poles")
+    fit = io.details["input_output"]
+    j = int(np.argmin(np.abs(np.asarray(io.omega) - OMEGA)))
+    assert fit["headline"][j] and io.omega[j] == fit["omega"][j] and io.damping_std[j] == fit["damping_std"][j]
+    assert io.details["ssi"]["omega"] == ssi.omega and io.eigenvalues[j] == pytest.approx(io.omega[j] ** 2)
+    assert abs(io.omega[j] - OMEGA) < 4 * io.omega_std[j] and abs(io.omega[j] / OMEGA - 1) < 5e-4
+    assert abs(io.damping[j] - ZETA) < 4 * io.damping_std[j] and abs(io.damping[j] / ZETA - 1) < 0.05

@@ -30,7 +30,11 @@ of the run has a measured force channel (``/channels/force_*``) at one DOF
 and the test is not ambient or a free response (excitation kind
 ``initial``, or a random force drawn anew per repetition). Results go to
 ``details["input_output"]`` (docs/results-format.md): the run's SSI
-``omega``, ``damping`` and shapes are left as they are.
+``omega``, ``damping`` and shapes are left as they are; ``poles`` (as
+``on``) reports the FRF fit's poles and their standard errors as the run's
+``omega`` and ``damping`` where it refined them (``headline`` per mode; the
+SSI's values in ``details["ssi"]``): with a measured force they are the
+more precise (docs/modal-method.md).
 
 Segments: the Welch segment is chosen so the narrowest SSI mode's
 half-power bandwidth ``2 zeta omega`` spans ``LINES_PER_BANDWIDTH`` lines
@@ -66,7 +70,7 @@ from ..io.results import Identification
 from ..io.traces import Channel, Trace
 from . import residues as rf
 
-INPUTS = ("auto", "off", "on")
+INPUTS = ("auto", "off", "on", "poles")
 LINES_PER_BANDWIDTH = 8  # FRF lines over the narrowest mode's half-power bandwidth
 BAND = (0.5, 1.5)  # fitted band: these multiples of the lowest and highest SSI frequency
 MIN_SEGMENT = 256  # samples
@@ -78,9 +82,9 @@ def check(option: str, traces: Sequence[Trace] = ()) -> None:
     for ``on`` when no trace has a force (before any work is done)."""
     if option not in INPUTS:
         raise IdentificationError(f"unknown input {option!r}; known: {', '.join(INPUTS)}", field="input")
-    if option == "on" and traces and not any(t.forces() for t in traces):
-        raise IdentificationError(f"{traces[0].path.name}: input=on needs a force channel or an /excitation "
-                                  "force; found none", field="input")
+    if option in ("on", "poles") and traces and not any(t.forces() for t in traces):
+        raise IdentificationError(f"{traces[0].path.name}: input={option} needs a force channel or an "
+                                  "/excitation force; found none", field="input")
 
 
 def _ambient(trace: Trace) -> bool:
@@ -214,8 +218,25 @@ def attach(traces: Sequence[Trace], channels: list[Channel], option: str, result
     try:
         found = analyse(traces, channels, np.asarray(result.omega, float), np.asarray(result.damping, float), why)
     except (IdentificationError, np.linalg.LinAlgError) as err:
-        if option == "on":
+        if option != "auto":
             raise
         found = {"input": f"off: the FRFs could not be fitted ({err})", "shape_scaling": "none"}
     result.details["input_output"] = found
+    return headline(result) if option == "poles" else result
+
+
+def headline(result: Identification) -> Identification:
+    """``result`` whose ``omega``, ``damping``, ``eigenvalues`` and their standard errors are the FRF
+    fit's for every pole it refined with finite errors; the SSI's values go to ``details["ssi"]``."""
+    found = result.details["input_output"]
+    keys = ("omega", "damping", "omega_std", "damping_std")
+    result.details["ssi"] = {k: list(getattr(result, k)) for k in keys}
+    if "omega" not in found:
+        return result
+    take = np.asarray(found["poles_refined"], bool) & np.isfinite(found["omega_std"]) \
+        & np.isfinite(found["damping_std"])
+    for k in keys:
+        setattr(result, k, np.where(take, found[k], getattr(result, k)).tolist())
+    result.eigenvalues = (np.asarray(result.omega)**2).tolist()
+    found["headline"] = take.tolist()
     return result
