@@ -72,8 +72,9 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     1. A mode's random response of ``D`` decay times keeps most of its peak
     (its envelope wanders over the record): ``1 - share`` under ``x`` with
     probability about ``x^sqrt(D)`` in the tail (:func:`share_bound`). Returns (share, the band's strongest line over
-    ``bg`` there, its index); NaN share when the band runs off the spectrum
-    or holds no excess."""
+    ``bg`` there, corrected for where the fitted frequency falls between lines (:func:`hann_gain`): a
+    sinusoid half a line off puts 0.72 of its power in each of two lines; its index); NaN share when
+    the band runs off the spectrum or holds no excess."""
     n = y.shape[1]
     bin_w = 2 * np.pi / (n * dt)
     h = zeta * omega / bin_w
@@ -92,10 +93,17 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     rest = y - np.outer(a.real, np.cos(w * t)) + np.outer(a.imag, np.sin(w * t))
     Pr = np.sum(np.abs(_spectrum(rest, rms)[:, band])**2, axis=0)
     before = float(np.sum(P[band] - bg[band]))
-    ratio = float(P[j] / max(bg[j], 1e-300))
+    ratio = float(P[j] / max(bg[j], 1e-300)) / hann_gain(w / bin_w - j)  # the line's power wherever it falls
     if before <= 0:
         return float("nan"), ratio, j
     return 1.0 - float(np.sum(Pr - bg[band])) / before, ratio, j
+
+
+def hann_gain(offset: float) -> float:
+    """Power of a sinusoid ``offset`` lines from a line in that line of the Hann-windowed periodogram,
+    relative to its power on the line: ``(sinc(d) / (1 - d^2))^2`` (1 at 0, 0.72 at 0.5)."""
+    d = min(abs(offset), 0.75)
+    return float((np.sinc(d) / (1.0 - d * d))**2)
 
 
 def share_bound(decays: float) -> float:
