@@ -14,8 +14,14 @@ mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
 one shape never yields two modes. A cluster is a mode when its poles come
 from at least ``min_fraction`` of the orders; its frequency and damping ratio
-are the medians over all its stable poles, its shape that of the pole
-nearest the median frequency among them. (Only the lower half of the orders
+are the medians over its own poles, its shape that of the pole nearest
+the median frequency among them. Its own poles: at each order the one
+stable pole of the cluster nearest, in the s-plane, the median of them
+all. A lightly damped mode's random response gives SSI of high order
+poles of its covariances' estimation noise beside the mode's own, of its
+shape and stable too, a few half-power bandwidths either side of it:
+within ``freq_tol`` they join its cluster, and their scatter is not the
+mode's. (Only the lower half of the orders
 was tried, against noise poles at high orders; with 15 modes in random data
 it biased mode 10 by -0.12 % over 20 realisations, coverage 0.55, while all
 orders give -0.02 % and damping medians within 5.3 %.)
@@ -70,8 +76,8 @@ class Criteria:
 class Mode:
     """One selected mode: its representative pole (order, index in that
     order's :class:`Poles`), the stable poles that support it ((order, index)
-    pairs), those its estimates use (``used``, all of them) and its
-    estimates, the medians over these: ``omega`` rad/s, ``zeta``."""
+    pairs), those its estimates use (``used``: one per order,
+    :func:`one_per_order`) and its estimates, the medians over these: ``omega`` rad/s, ``zeta``."""
 
     order: int
     index: int
@@ -153,7 +159,7 @@ def select_modes(poles: list[Poles], criteria: Criteria,
     for c in _clusters(poles, flags, criteria):
         if len({i for i, _ in c}) < need:
             continue
-        used = list(c)
+        used = one_per_order(c, poles)
         omega = np.array([poles[i].omega[j] for i, j in used])
         zeta = np.array([poles[i].zeta[j] for i, j in used])
         middle = median(omega)
@@ -163,6 +169,25 @@ def select_modes(poles: list[Poles], criteria: Criteria,
     if valid is not None:
         modes = [md for md, ok in zip(modes, valid(modes)) if ok]
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
+
+
+def one_per_order(cluster: list[tuple[int, int]], poles: list[Poles]) -> list[tuple[int, int]]:
+    """Of a cluster's stable poles ((order position, index) pairs), at each
+    order the one nearest, in the s-plane, the pole of the median frequency
+    and damping ratio of them all, ``s_med = omega_med (-zeta_med + i)``
+    (rad/s; the distance ``|s - s_med|`` weighs a frequency and a decay
+    rate alike): the mode's own pole there, not the covariance noise's
+    poles beside it (see the module docstring); in the cluster's order."""
+    omega = np.array([poles[i].omega[j] for i, j in cluster])
+    zeta = np.array([poles[i].zeta[j] for i, j in cluster])
+    w, z = median(omega), median(zeta)
+    distance = np.hypot(omega - w, zeta * omega - z * w)
+    best: dict[int, int] = {}
+    for k, (i, _) in enumerate(cluster):
+        if i not in best or distance[k] < distance[best[i]]:
+            best[i] = k
+    chosen = set(best.values())
+    return [pair for k, pair in enumerate(cluster) if k in chosen]
 
 
 def median(values: np.ndarray | list[float]) -> float:

@@ -53,6 +53,18 @@ a run add up as independent records):
   ``zeta``): one pole whose shape the record splits in two. The one of
   more stable poles is kept.
 
+Spectral peak (stationary records), for a mode of the shape of a better
+supported one (MAC above ``SHADOW_MAC``, the stabilisation's ``mac_min``): the record's spectrum holds a
+peak at the mode, by the likelihood-ratio test of
+:mod:`identifier.modal.peak_test` (p-value under ``peak_test.ALPHA`` over
+the half-power bands the record holds). SSI of high order fits poles to
+the estimation noise of a strong mode's covariances, which has that
+mode's shape (``delta R_l = phi e_l phi^T`` for one mode): stable at half
+the orders or more, coherent, found again by the jackknife (whose
+replicates share the noise), but without a peak of their own. Applied to
+such shadows only: the summed spectrum hides weak modes of other shapes
+under their neighbours' response, which SSI resolves by their shapes.
+
 Temporal coherence (:mod:`identifier.modal`) is tested before these and its
 failures are listed with them. A mode stable at under ``MIN_STABLE`` of the model orders
 (:mod:`identifier.modal.stabilisation` asks ``min_fraction`` of every
@@ -107,6 +119,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
+from . import peak_test
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -120,6 +133,7 @@ MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
 SAME_SHAPE = 0.01  # ... two unresolved shapes whose difference has a chi-square above chance this often: one mode
+SHADOW_MAC = 0.95  # a mode this alike (MAC) to a better supported one must show a spectral peak
 BIAS = 1.0  # the short-record bias's standard deviation, x 1 / T rad/s
 
 
@@ -155,7 +169,8 @@ def with_bias(omega: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray, le
 
 def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
           missed: np.ndarray, support: np.ndarray, stable: np.ndarray, shapes: np.ndarray, length: float,
-          decay: bool, groups: int, errors: bool = True, shape_std: np.ndarray | None = None) -> Verdict:
+          decay: bool, groups: int, errors: bool = True, shape_std: np.ndarray | None = None,
+          spectrum: tuple[list[np.ndarray], float] | None = None) -> Verdict:
     """The verdict on candidate modes (k,): ``omega`` rad/s, ``zeta``, their
     standard errors (bias included), ``missed`` (jackknife replicates that did
     not find each), ``support`` (stable poles), ``stable`` (share of the
@@ -165,7 +180,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     ``uncertainty="off"`` the repetition and error tests are skipped);
     ``shape_std`` (m, k): standard errors of the entries of the real
     shapes (:func:`identifier.modal.ssi.poles.real_shapes`), NaN where
-    unknown. Tests and thresholds in the module docstring."""
+    unknown; ``spectrum``: the stationary records (m, n_i) and their ``dt``
+    s for the spectral-peak test (not applied without them, nor to free
+    responses). Tests and thresholds in the module docstring."""
     k = omega.size
     reasons = [""] * k
     periods = omega * length / (2 * np.pi)
@@ -187,6 +204,15 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             reasons[i] = (f"stable at {stable[i]:.0%} of the model orders (under {MIN_STABLE:.0%}) with "
                           f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
                           f"{BANDWIDTH:g} zeta)")
+    shadowed = (mac(shapes, shapes) > SHADOW_MAC) & (np.asarray(support)[None, :] > np.asarray(support)[:, None]) \
+        if k > 1 else np.zeros((k, k), dtype=bool)
+    doubted = [i for i in range(k) if not reasons[i] and shadowed[i].any()]
+    if spectrum is not None and not decay and doubted:
+        stat, pvalue = peak_test.peak_lr(spectrum[0], spectrum[1], omega, zeta)
+        for i in doubted:
+            if pvalue[i] >= peak_test.ALPHA:
+                reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
+                              f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = mac(shapes, shapes) > DUPLICATE_MAC

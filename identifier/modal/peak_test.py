@@ -1,0 +1,149 @@
+"""Whether a stationary record's spectrum holds a candidate mode's peak: a
+likelihood-ratio test with a known null distribution.
+
+The periodogram of a stationary record of ``n`` samples at ``dt`` s (no
+taper; ``T = n dt``), at the lines ``omega_k = 2 pi k / T``, is the
+spectrum times independent exponential variables (Whittle). With the
+channels scaled to unit RMS and their periodograms summed, ``P_k``, and the
+band's lines averaged in blocks of ``b`` lines (at most ``MAX_BLOCKS``
+blocks; a block mean of ``b`` exponentials),
+
+    log L(S) = - b sum_k (log S_k + P_k / S_k)
+
+over the blocks of the candidate's band ``|omega - omega_c| <= h``,
+``h = min(max(HALF_WIDTHS zeta_c omega_c, LOOSE omega_c, MIN_LINES 2 pi / T), omega_c / 2)``.
+Two models of the band's spectrum, non-negative sums of non-negative terms:
+
+    S0 = a_- (1 - x) + a_+ (1 + x) + sum_j a_j L(omega; omega_j, zeta_j)    (x = (omega - omega_c) / h)
+    S1 = S0 + a_c L(omega; omega_c, zeta'),   L = 1 / ((w_0^2 - omega^2)^2 + (2 zeta w_0 omega)^2)
+
+(``j``: the other candidates that the band does not leave unresolved,
+``|omega_j - omega_c| > zeta_j omega_j + zeta_c omega_c``; a linear
+oscillator's response spectrum is ``L`` at its pole), each fitted by
+Whittle maximum likelihood (iteratively reweighted non-negative least
+squares, ``S1`` started from ``S0``'s fit), and ``LR = 2 (log L1 - log
+L0)``, the largest over ``zeta' = zeta_c`` times each of ``ZETA_STEPS``
+(SSI's damping of a lightly damped mode can be far off). Without a peak at
+``omega_c``, ``LR`` follows ``chi2(1) / 2`` for one amplitude on its
+boundary (``a_c >= 0``); summed channels of a band of rank above one give
+lines less scattered than one exponential, so the bound holds. A pole SSI
+fits to the covariance estimates' own noise has no peak of its own. The
+candidate has a peak when
+
+    p = len(ZETA_STEPS) N P(chi2(1) > LR) / 2 < ALPHA,   N = (n / 2) / max(1, zeta_c omega_c T / pi):
+
+``N``, the number of half-power bands the record's lines hold, is the
+number of places a pole could have been fitted (Bonferroni over them and
+over the damping ratios tried). Several records are cut to the shortest
+and their periodograms added (lines of ``chi2`` of more degrees of
+freedom: the bound holds). Assumes white sensor noise and a spectrum that
+is smooth over the band apart from the modes. Fails (keeps a pole) where
+the band holds a peak that is no mode (a harmonic left in the record, a
+coloured force); rejects a true mode whose peak in the summed spectrum is
+within the scatter of its neighbours' response (a weak mode that SSI
+resolves by its shape), which is why :mod:`identifier.modal.support`
+applies it to shadows only.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import nnls
+from scipy.stats import chi2 as chi_square
+
+from .runtime import rfft
+
+ALPHA = 0.01  # chance, per record, that a band without a peak passes
+HALF_WIDTHS = 10.0  # band half-width in half-power half-widths zeta omega
+LOOSE = 0.005  # ... at least this share of omega
+MIN_LINES = 32  # ... and this many lines
+ZETA_STEPS = (0.5, 1.0, 2.0, 4.0, 8.0)  # damping ratios tried, x SSI's
+MAX_BLOCKS = 512  # the band's lines are averaged in at most this many blocks
+
+
+def peak_shape(omega: np.ndarray, w0: float, zeta: float) -> np.ndarray:
+    """A linear oscillator's response spectrum ``L`` (module docstring) at ``omega`` (k,) rad/s, up to scale."""
+    return 1.0 / ((w0**2 - omega**2) ** 2 + (2.0 * zeta * w0 * omega) ** 2)
+
+
+def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None = None,
+            iterations: int = 30) -> tuple[float, np.ndarray]:
+    """Whittle log-likelihood ``-lines sum(log S + P / S)`` of the band's
+    line averages ``P`` (b,) (each the mean of ``lines`` periodogram lines)
+    at its maximum over ``S = X a``, ``a >= 0`` (X (b, c), non-negative
+    columns): iteratively reweighted non-negative least squares (weights
+    ``1 / S``), from ``start`` (c,) if given; the best value met and its
+    amplitudes (c,). ``S`` is kept above 1e-9 of the mean line."""
+    floor = 1e-9 * P.mean()
+    scale = np.maximum(X.max(axis=0), 1e-300)
+    Xs = X / scale
+
+    def value(a: np.ndarray) -> float:
+        S = np.maximum(Xs @ a, floor)
+        return float(-lines * np.sum(np.log(S) + P / S))
+
+    a = nnls(Xs, P)[0] if start is None else start * scale
+    best, best_a = value(a), a
+    for _ in range(iterations):
+        w = 1.0 / np.maximum(Xs @ best_a, floor)
+        step = nnls(Xs * w[:, None], P * w)[0]
+        for _ in range(6):  # halved towards the best while it does not improve
+            v = value(step)
+            if v > best + 1e-10 * abs(best):
+                break
+            step = 0.5 * (step + best_a)
+        else:
+            break
+        best, best_a = v, step
+    return best, best_a / scale
+
+
+def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
+    """``P_k`` (n // 2 + 1,) of the module docstring: records (m, n_i) cut to
+    the shortest, channels scaled to unit RMS, their periodograms summed
+    over channels and records."""
+    n = min(y.shape[1] for y in records)
+    total = np.zeros(n // 2 + 1)
+    for y in records:
+        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
+        rms = y.std(axis=1)
+        total += np.sum(np.abs(rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)) ** 2, axis=0)
+    return total
+
+
+def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
+            zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per candidate (k,): ``LR`` and its p-value bound with the Bonferroni
+    factor (module docstring), for candidates at ``omega`` (k,) rad/s,
+    damping ``zeta`` (k,), in stationary records
+    (m, n_i) sampled at ``dt`` s. A candidate whose band holds under 3
+    lines gets ``LR`` 0 and p-value 1."""
+    omega, zeta = np.asarray(omega, float), np.abs(np.asarray(zeta, float))
+    n = min(y.shape[1] for y in records)
+    T = n * dt
+    lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
+    k = omega.size
+    stat, pvalue = np.zeros(k), np.ones(k)
+    summed = summed_periodogram(records)
+    for c in range(k):
+        z = max(zeta[c], 1e-6)
+        half = min(max(HALF_WIDTHS * z * omega[c], LOOSE * omega[c], MIN_LINES * 2.0 * np.pi / T), 0.5 * omega[c])
+        band = np.flatnonzero(np.abs(lines - omega[c]) <= half)
+        if band.size < 3:
+            continue
+        size = -(-band.size // MAX_BLOCKS)  # lines averaged per block
+        band = band[: band.size // size * size]
+        P = summed[band].reshape(-1, size).mean(axis=1)
+        w = lines[band].reshape(-1, size).mean(axis=1)
+        x = (w - omega[c]) / half
+        others = [peak_shape(w, omega[j], max(zeta[j], 1e-6)) for j in range(k)
+                  if j != c and abs(omega[j] - omega[c]) > zeta[j] * omega[j] + zeta[c] * omega[c]]
+        X0 = np.column_stack([1.0 - x, 1.0 + x] + others)
+        base, a0 = whittle(P, X0, size)
+        best = base
+        for step in ZETA_STEPS:
+            value, _ = whittle(P, np.column_stack([X0, peak_shape(w, omega[c], z * step)]), size, np.r_[a0, 0.0])
+            best = max(best, value)
+        stat[c] = 2.0 * (best - base)
+        places = (n / 2) / max(1.0, z * omega[c] * T / np.pi)
+        pvalue[c] = min(1.0, 0.5 * chi_square.sf(stat[c], 1) * len(ZETA_STEPS) * places)
+    return stat, pvalue
