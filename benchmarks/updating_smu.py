@@ -17,6 +17,27 @@ Three parts, figures printed:
    and the parameters on a bound; then with 1 % noise stated (seeds 0..19),
    regularised and not.
 
+Measured on a clean copy of 83bcbd8, run once with the defaults (starts
+seed 1, noise seeds 0-199, load average 12-14 on the 2 cores from other
+runs):
+
+1. 100 of 100 starts within 0.1 % (median error 6.0e-10, largest the same:
+   every start reaches the same answer); CPU per start median 0.054 s,
+   largest 0.101 s (target <= 0.1 s on one core: met by the median; the
+   reference package's best formulation 0.23 s, its MAC formulation 0 of
+   100 starts);
+2. 1 % noise: the 95 % intervals hold the truth in 95.3 % of 3,600 (target
+   90-98 %: met; per parameter 66 % to 100 %), median mean error 5.68 %,
+   discrepancy rule, errors scaled for model error in 3 of 200 seeds;
+3. ill-posed (12 data, 18 unknowns): rank 12 of 18, 6 undetermined
+   combinations named (e.g. ``+0.52 stiffness[2] -0.49 stiffness[11] -0.31
+   stiffness[1] +0.28 stiffness[14]``), none on a bound, max |alpha| 0.149,
+   the answer's component in the undetermined subspace 9e-14 against the
+   truth's 0.173 (left at the prior), std_error null for 17 of 18; with 1 %
+   noise stated, seeds 0-19: regularised (discrepancy) no parameter on a
+   bound in any seed, median RMS alpha error 0.055; unregularised a median
+   8 on a bound (max 10), error 0.220.
+
     python benchmarks/updating_smu.py [--starts 100] [--seeds 200]
 """
 from __future__ import annotations
