@@ -255,7 +255,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
         periodic_modes, found = periodic.confirm(
             screened, dt, np.array([md.omega for md in modes]),
             np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),
-            np.array([md.zeta for md in modes])) if not free else (np.zeros(len(modes), bool), [])
+            np.array([md.zeta for md in modes]), _scatter(modes, by_order)[0]) if not free \
+            else (np.zeros(len(modes), bool), [])
         if not known and (pending := periodic.unsubtracted(found, screened)):
             return None, pending  # they took model orders: again with them subtracted
         modes = [md for md, h in zip(modes, periodic_modes) if not h]

@@ -66,7 +66,9 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
 - a narrow damped SSI mode (``h < H_MIN``) at a line standing ``LINE`` times over its neighbours'
   median that one sinusoid holds over ``share_bound(D)`` of (``coherent``): a weak harmonic that SSI
   fitted with a pole of a few decay times (its kurtosis is a random response's when the band holds
-  more random power than the harmonic);
+  more random power than the harmonic); when the pole's own band shows none, at the strongest such
+  line within three standard deviations of its poles' frequencies over the orders (a weak line's
+  poles stray several lines from it, and the pole's band then holds only its skirt);
 - any other candidate of ``z >= LIKELY`` that no narrow damped SSI mode explains (none within
   ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` plus 1.5 lines whose bandwidth ``2 h`` is under
   ``WINDOW`` lines: the running median does not follow so narrow a peak, whose random spikes are
@@ -82,7 +84,7 @@ near it or the band the record allows holds as much random power as the harmonic
 peak); it is then reported as a mode when SSI fits it a pole of ``STILL`` to about 10 decay times
 whose peak the random background shares (``share_bound`` nears 1 as ``D`` falls to ``STILL``: 0.98
 at 3 decay times, 0.89 at 10), a broader pole whose line stands under ``conc(r)`` times a mode's peak, or a pole
-beside the line that holds no peak of it (a misplaced pole; no test looks there). A mode of ``D``
+further beside the line than its frequencies scatter over the orders. A mode of ``D``
 decay times is taken for a harmonic with probability about ``SHARE_P`` when a line stands in its
 band (the coherent share's law, Monte Carlo, docs/modal-method.md). Takes for a harmonic a random
 peak whose kurtosis falls ``LIKELY`` standard errors under 3 by chance away from every narrow damped
@@ -102,7 +104,7 @@ import numpy as np
 from .harmonics_lines import (BLOCKS, CONC, DOUBTFUL, H_MIN, LIKELY, LINE, MAX_LINES, RISE, SKIRT, STILL,  # noqa: F401
                               SURE, WINDOW, Line, _spectrum, background, band_lines, detect, fit, kurtosis, measure,
                               subtract)
-from .harmonics_poles import _pole_line, coherent_share, conc, share_bound  # noqa: F401
+from .harmonics_poles import _pole_line, coherent_share, conc, hann_gain, share_bound  # noqa: F401
 from .support import ZETA_FLOOR
 
 
@@ -148,12 +150,13 @@ def unsubtracted(found: list[Line], screened: Screened) -> list[Line]:
     return [ln for ln in found if all(ln is not s and ln.omega != s.omega for s in screened.lines)]
 
 
-def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray
-            ) -> tuple[np.ndarray, list[Line]]:
+def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray,
+            scatter: np.ndarray) -> tuple[np.ndarray, list[Line]]:
     """Which SSI modes (``omega`` (k,) rad/s, ``zeta_abs`` the median
-    ``|zeta|`` over each one's stable poles, ``zeta`` its median) are
-    harmonics (k,), and every harmonic found: the sure lines, then the
-    module docstring's rules in its order."""
+    ``|zeta|`` over each one's stable poles, ``zeta`` its median, ``scatter``
+    the standard deviation of their frequencies, rad/s) are harmonics (k,),
+    and every harmonic found: the sure lines, then the module docstring's
+    rules in its order."""
     y = max(screened.records, key=lambda r: r.shape[1])
     n = y.shape[1]
     length = n * dt
@@ -202,6 +205,8 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             if not (line_like or h < H_MIN):
                 continue
             share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
+            if h < H_MIN and not share >= share_bound(2 * np.pi * h):  # a weak line's poles stray beside it
+                share, ratio, k = _beside(y, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)
             sinusoid = share >= share_bound(2 * np.pi * h)  # NaN: no peak
             test = "line" if line_like and sinusoid else ""
             if not test and h < H_MIN and ratio >= LINE and sinusoid:
@@ -227,6 +232,24 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             found.remove(ln)
     found += [ln for ln in doubtful if ln.z >= LIKELY and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
     return drop, sorted(found, key=lambda x: x.omega)
+
+
+def _beside(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: float, zeta: float,
+            reach: float) -> tuple[float, float, int]:
+    """:func:`coherent_share` at the strongest line (over ``LINE`` times ``bg``, less the loss of a line
+    half a line off) within ``reach``
+    lines of a narrow pole at ``omega`` rad/s whose own band shows no sinusoid: a weak sinusoid's
+    SSI poles stray from its line by several lines (about their scatter over the orders), so that
+    the pole's band holds only the line's skirt. ``(nan, 0, -1)`` without such a line."""
+    bin_w = 2 * np.pi / (y.shape[1] * dt)
+    j0, r = int(round(omega / bin_w)), int(np.ceil(reach))
+    band = np.arange(max(j0 - r, 1), min(j0 + r + 1, P.size - 1))
+    if not band.size:
+        return float("nan"), 0.0, -1
+    j = int(band[np.argmax(P[band] / np.maximum(bg[band], 1e-300))])
+    if P[j] < LINE * hann_gain(0.5) * bg[j]:  # a line between two lines puts 0.72 of its power in each
+        return float("nan"), 0.0, -1
+    return coherent_share(y, dt, P, bg, j * bin_w, zeta * omega / (j * bin_w))
 
 
 def on_modes(found: list[Line], omega: np.ndarray, zeta: np.ndarray) -> None:
