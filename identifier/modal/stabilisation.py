@@ -14,14 +14,14 @@ mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
 one shape never yields two modes. A cluster is a mode when its poles come
 from at least ``min_fraction`` of the orders; its frequency and damping ratio
-are the medians over its own poles, its shape that of the pole nearest
-the median frequency among them. Its own poles: at each order the one
-stable pole of the cluster nearest, in the s-plane, the median of them
-all. A lightly damped mode's random response gives SSI of high order
-poles of its covariances' estimation noise beside the mode's own, of its
-shape and stable too, a few half-power bandwidths either side of it:
-within ``freq_tol`` they join its cluster, and their scatter is not the
-mode's. (Only the lower half of the orders
+are the medians over all its stable poles, its shape that of the pole
+nearest the median frequency among them. Its spread over the model
+orders is that of its own poles: at each order the one stable pole of the
+cluster nearest, in the s-plane, the median of them all. A lightly
+damped mode's random response gives SSI of high order poles of its
+covariances' estimation noise beside the mode's own, of its shape and
+stable too, a few half-power bandwidths either side of it: within
+``freq_tol`` they join its cluster, and their scatter is not the mode's. (Only the lower half of the orders
 was tried, against noise poles at high orders; with 15 modes in random data
 it biased mode 10 by -0.12 % over 20 realisations, coverage 0.55, while all
 orders give -0.02 % and damping medians within 5.3 %.)
@@ -76,8 +76,10 @@ class Criteria:
 class Mode:
     """One selected mode: its representative pole (order, index in that
     order's :class:`Poles`), the stable poles that support it ((order, index)
-    pairs), those its estimates use (``used``: one per order,
-    :func:`one_per_order`) and its estimates, the medians over these: ``omega`` rad/s, ``zeta``."""
+    pairs), those its estimates use (``used``, all of them), its own
+    poles (``own``: one per order, :func:`one_per_order`; their scatter is
+    the mode's spread over the orders) and its estimates, the medians
+    over ``used``: ``omega`` rad/s, ``zeta``."""
 
     order: int
     index: int
@@ -85,6 +87,7 @@ class Mode:
     used: tuple[tuple[int, int], ...]
     omega: float
     zeta: float
+    own: tuple[tuple[int, int], ...] = ()
 
     @property
     def support(self) -> int:
@@ -159,13 +162,15 @@ def select_modes(poles: list[Poles], criteria: Criteria,
     for c in _clusters(poles, flags, criteria):
         if len({i for i, _ in c}) < need:
             continue
-        used = one_per_order(c, poles)
+        used = list(c)
+        own = one_per_order(c, poles)
         omega = np.array([poles[i].omega[j] for i, j in used])
         zeta = np.array([poles[i].zeta[j] for i, j in used])
         middle = median(omega)
         i, j = used[int(np.argmin(np.abs(omega - middle)))]
         modes.append(Mode(poles[i].order, int(j), tuple((poles[a].order, int(b)) for a, b in c),
-                          tuple((poles[a].order, int(b)) for a, b in used), middle, median(zeta)))
+                          tuple((poles[a].order, int(b)) for a, b in used), middle, median(zeta),
+                          tuple((poles[a].order, int(b)) for a, b in own)))
     if valid is not None:
         modes = [md for md, ok in zip(modes, valid(modes)) if ok]
     return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
