@@ -257,7 +257,8 @@ def jackknife(replicates: Replicates, poles: dict[int, Poles], targets: list[Tar
         orders, reported, out_of_phase = order_spread(poles, targets)
         shape_se = np.hypot(se[:, 2:].T, orders)
         for part in (reported, out_of_phase):  # each where it stands out of the errors so far
-            out = np.sum((part / shape_se) ** 2, axis=0) > chi2.ppf(STANDS_OUT, max(m - 1, 1))
+            z = np.divide(part, shape_se, out=np.zeros_like(part), where=shape_se > 0)  # one channel: 0 / 0
+            out = np.sum(z**2, axis=0) > chi2.ppf(STANDS_OUT, max(m - 1, 1))
             shape_se[:, out] = np.hypot(shape_se, part)[:, out]
     return se[:, 0], se[:, 1], groups - count[:, 0], shape_se
 
