@@ -41,7 +41,7 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
         {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
          "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto"},
         {"quantity": ("auto", "displacement", "velocity", "acceleration"), "refine": ("auto", "off"),
-         "uncertainty": ("jackknife", "off"), "input": ("auto", "off", "on")}),
+         "uncertainty": ("jackknife", "off"), "input": ("auto", "off", "on", "poles")}),
     "updating": (
         "finite-element model updating from identified modes (a modal results or modal-data file, "
         "--option modal=FILE) starting from the model given as the prior",
