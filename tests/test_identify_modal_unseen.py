@@ -152,7 +152,9 @@ def test_short_unseen_profile():
     assert all("error" not in r for r in rows)
     assert sum(r["invented"] for r in rows) == 0
     assert all(r["finite"] for r in rows)
-    assert sum(r["found"] for r in rows) >= 0.75 * sum(r["supported"] for r in rows)
+    # 12 of 15 before the spectral-peak test (8acad0e), 11 now: it trades found modes for invented ones
+    # (tuning seeds 100,800-100,999: found 82.4 -> 80.6 %, invented 10 -> 3; docs/modal-method.md)
+    assert sum(r["found"] for r in rows) >= 0.7 * sum(r["supported"] for r in rows)
     assert any(r["sensors"] == 1 for r in rows)
 
 

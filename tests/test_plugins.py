@@ -77,7 +77,7 @@ def test_methods_lists_what_each_needs(installed, capsys):
     listed = {m["name"]: m for m in json.loads(capsys.readouterr().out)}
     assert list(listed) == list(sb.methods())
     assert listed["peaks"]["channels"] == "one or more channels of the chosen quantity; a free or random response"
-    assert listed["modal"]["options"]["input"] == {"default": "auto", "choices": ["auto", "off", "on"]}
+    assert listed["modal"]["options"]["input"] == {"default": "auto", "choices": ["auto", "off", "on", "poles"]}
     assert listed["updating"]["needs_prior"] and not listed["least-squares"]["needs_prior"]
     assert all(m["channels"] != "not stated" for name, m in listed.items())
     assert main(["methods"]) == 0
