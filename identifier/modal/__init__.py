@@ -326,7 +326,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
 
 def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray, np.ndarray]:
     """Standard deviations (k,) of omega rad/s and zeta over each mode's own poles (one per order)."""
-    values = [np.array([(by_order[n].omega[j], by_order[n].zeta[j]) for n, j in md.own or md.used])
+    values = [np.array([(by_order[n].omega[j], by_order[n].zeta[j]) for n, j in md.own])
               for md in modes]
     spread = np.array([v.std(axis=0) for v in values]).reshape(-1, 2)
     return spread[:, 0], spread[:, 1]

@@ -141,13 +141,13 @@ def screen(records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> 
         sure += here
         doubtful += [ln for ln in found if ln.z < SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
         cleaned.append(subtract(y, here + again, dt) if here or again else y)
-    return Screened(cleaned, _merge(sure, tol) + [replace(k) for k in known], _merge(doubtful, tol))
+    return Screened(cleaned, _merge(sure, tol) + list(known), _merge(doubtful, tol))
 
 
 def unsubtracted(found: list[Line], screened: Screened) -> list[Line]:
     """The harmonics of ``found`` that :func:`screen` did not subtract (those :func:`confirm` found
     through the SSI modes): they still take model orders of the records' SSI."""
-    return [ln for ln in found if all(ln is not s and ln.omega != s.omega for s in screened.lines)]
+    return [ln for ln in found if all(ln.omega != s.omega for s in screened.lines)]
 
 
 def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarray, zeta: np.ndarray,

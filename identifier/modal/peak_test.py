@@ -111,12 +111,13 @@ def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
 
 
 def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
-            zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            zeta: np.ndarray, which: list[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per candidate (k,): ``LR`` and its p-value bound with the Bonferroni
     factor (module docstring), for candidates at ``omega`` (k,) rad/s,
     damping ``zeta`` (k,), in stationary records
-    (m, n_i) sampled at ``dt`` s. A candidate whose band holds under 3
-    lines gets ``LR`` 0 and p-value 1."""
+    (m, n_i) sampled at ``dt`` s; only the candidates ``which`` (all when
+    None) are tested, the others are their neighbours only. A candidate
+    untested or whose band holds under 3 lines gets ``LR`` 0 and p-value 1."""
     omega, zeta = np.asarray(omega, float), np.abs(np.asarray(zeta, float))
     n = min(y.shape[1] for y in records)
     T = n * dt
@@ -124,7 +125,7 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
     k = omega.size
     stat, pvalue = np.zeros(k), np.ones(k)
     summed = summed_periodogram(records)
-    for c in range(k):
+    for c in range(k) if which is None else which:
         z = max(zeta[c], 1e-6)
         half = min(max(HALF_WIDTHS * z * omega[c], LOOSE * omega[c], MIN_LINES * 2.0 * np.pi / T), 0.5 * omega[c])
         band = np.flatnonzero(np.abs(lines - omega[c]) <= half)

@@ -87,7 +87,7 @@ class Mode:
     used: tuple[tuple[int, int], ...]
     omega: float
     zeta: float
-    own: tuple[tuple[int, int], ...] = ()
+    own: tuple[tuple[int, int], ...]
 
     @property
     def support(self) -> int:

@@ -204,18 +204,18 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             reasons[i] = (f"stable at {stable[i]:.0%} of the model orders (under {MIN_STABLE:.0%}) with "
                           f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
                           f"{BANDWIDTH:g} zeta)")
-    shadowed = (mac(shapes, shapes) > SHADOW_MAC) & (np.asarray(support)[None, :] > np.asarray(support)[:, None]) \
-        if k > 1 else np.zeros((k, k), dtype=bool)
+    shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
+    shadowed = (shape_mac > SHADOW_MAC) & (np.asarray(support)[None, :] > np.asarray(support)[:, None])
     doubted = [i for i in range(k) if not reasons[i] and shadowed[i].any()]
     if spectrum is not None and not decay and doubted:
-        stat, pvalue = peak_test.peak_lr(spectrum[0], spectrum[1], omega, zeta)
+        stat, pvalue = peak_test.peak_lr(spectrum[0], spectrum[1], omega, zeta, doubted)
         for i in doubted:
             if pvalue[i] >= peak_test.ALPHA:
                 reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
                               f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
-        alike = mac(shapes, shapes) > DUPLICATE_MAC
+        alike = shape_mac > DUPLICATE_MAC
         if not decay:  # a free response's unresolved pair is left to the close-pair fit (module docstring)
             alike |= same_shape(shapes, shape_std)
         se = np.where(np.isfinite(omega_std), omega_std, 0.0)
