@@ -74,12 +74,14 @@ m -0.05, c +0.10, k -0.03, coverage 0.87 [0.67, 1.00].
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import binomtest
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
@@ -160,11 +162,38 @@ def one(case: str, fmu: Path, seed: int, substeps: int, work: Path, first: bool)
         for p in run["parameters"]:
             truth = TRUE[p["label"]]
             errors[p["label"]].append(100 * (p["value"] / truth - 1))
+            errors.setdefault(f"std {p['label']}", []).append(100 * p["std_error"] / truth)
             inside.append(abs(p["value"] - truth) <= 1.96 * p["std_error"])
         errors.setdefault("offset (mm)", []).extend(1e3 * v for o in run["details"].get("offsets", {}).values()
                                                    for v in o.values())
     errors["coverage"] = [float(np.mean(inside))]
+    errors["held"] = [float(x) for x in inside]
+    errors["io held"] = [float(x) for x in held]
     return errors
+
+
+def pooled_coverage(held: list[float]) -> str:
+    """``k/n = share [lo, hi]``: the intervals holding the truth over every
+    (seed, repetition, parameter), with the 95 % Clopper-Pearson interval of the share."""
+    k, n = int(sum(held)), len(held)
+    ci = binomtest(k, n).proportion_ci(0.95, method="exact")
+    return f"{k}/{n} = {k / n:.3f} [{ci.low:.3f}, {ci.high:.3f}]"
+
+
+def calibration(pooled: dict[str, list[float]]) -> list[str]:
+    """Per parameter: the median stated standard error over the runs divided by
+    the achieved spread (std of the estimates over every run, ddof 1; its own
+    sampling error about 1 / sqrt(2 (N - 1))), and the mean error over the
+    stated error (bias in standard errors; sampling error about 1 / sqrt(N))."""
+    cells = []
+    for label in TRUE:
+        err, std = np.asarray(pooled.get(label, [])), np.asarray(pooled.get(f"std {label}", []))
+        if err.size < 2:
+            continue
+        cells.append(f"{label} stated/achieved {np.median(std) / np.std(err, ddof=1):.3f} "
+                     f"(+-{1 / np.sqrt(2 * (err.size - 1)):.3f}), mean error/stated {np.mean(err / std):+.3f} "
+                     f"(+-{1 / np.sqrt(err.size):.3f}), N {err.size}")
+    return cells
 
 
 def main() -> None:
@@ -174,6 +203,7 @@ def main() -> None:
     parser.add_argument("--substeps", type=int, default=1000, help="doSteps per sample of the random cases")
     parser.add_argument("--no-check-step", action="store_true",
                         help="skip the step-convergence check (run on each case's first seed otherwise)")
+    parser.add_argument("--save", type=Path, help="write every run's values per case to SAVE/<case>.json")
     parser.add_argument("--cases", nargs="*", default=["impulse-me", "impulse-me-y0=0", "random-sub",
                                                         "random-sub-y0=0"])
     args = parser.parse_args()
@@ -183,7 +213,8 @@ def main() -> None:
         print(f"1-DOF FMU: m = {M} kg, k = {K:g} N/m, d = {D} N s/m (omega {OMEGA:g} rad/s, zeta {ZETA:g}); "
               f"{args.seeds} seeds x 5 repetitions, 2 % noise on force and position")
         print("errors in % of the true value: median [10th, 90th percentile] over every run; "
-              "coverage: median [min, max] over seeds")
+              "coverage: median [min, max] over seeds; pooled coverage: k of n (run, parameter) "
+              "intervals holding the truth, share [95 % Clopper-Pearson interval]")
         for case in args.cases:
             start = time.monotonic()
             pooled: dict[str, list[float]] = {}
@@ -192,15 +223,23 @@ def main() -> None:
                     pooled.setdefault(key, []).extend(values)
             cells = [f"modal found the mode in {5 * args.seeds - int(sum(pooled.pop('modal missed')))}/"
                      f"{5 * args.seeds} runs, input-output fit missed {int(sum(pooled.pop('io missed', [0])))}"]
+            if args.save:
+                args.save.mkdir(parents=True, exist_ok=True)
+                (args.save / f"{case}.json").write_text(json.dumps(pooled))
+            held, io_held = pooled.pop("held"), pooled.pop("io held")
             for key, values in pooled.items():
-                if not values:  # no offsets estimated
+                if not values or key.startswith("std "):  # no offsets estimated; standard errors below
                     continue
                 v = np.asarray(values)
                 ratio = key.endswith("coverage")
                 lo, mid, hi = (np.percentile(v, [10, 50, 90]) if not ratio else (v.min(), np.median(v), v.max()))
                 cells.append(f"{key} {mid:+.3g} [{lo:+.3g}, {hi:+.3g}]" if not ratio
                              else f"{key} {mid:.2f} [{lo:.2f}, {hi:.2f}]")
-            print(f"{case:16s} ({time.monotonic() - start:.0f} s): " + "; ".join(cells), flush=True)
+            cells.append(f"pooled coverage {pooled_coverage(held)}")
+            if io_held:
+                cells.append(f"io pooled coverage {pooled_coverage(io_held)}")
+            print(f"{case:16s} ({time.monotonic() - start:.0f} s): " + "; ".join(cells + calibration(pooled)),
+                  flush=True)
 
 
 if __name__ == "__main__":
