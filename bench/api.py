@@ -89,7 +89,8 @@ def plan(campaign: str | Path, method: str, **options: Any) -> dict[str, Any]:
     ``modal``) identifies from a campaign's test, on the campaign's model;
     options ``model``, ``test``, ``candidates`` + ``sensors`` (a sensor
     layout, written as a campaign file; ``criterion`` ``frequencies``,
-    ``d-optimal`` or ``effective-independence``, ``target_modes``), ``verify`` (Monte Carlo
+    ``d-optimal`` or ``effective-independence``, ``target_modes``), ``drives``
+    (candidate excitation points of a free decay's impulse), ``verify`` (Monte Carlo
     repetitions), ``seed``, ``jobs``, ``progress``. Returns the plan document."""
     from structbench.planning import plan as make_plan
     return make_plan(campaign, method, **options)

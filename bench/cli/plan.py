@@ -27,7 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "target modes' frequencies)")
     parser.add_argument("--target-modes", type=int, metavar="N",
                         help="the frequencies criterion targets the lowest N planned modes (default all)")
-    parser.add_argument("--layout-out", metavar="FILE", help="campaign file of the chosen layout")
+    parser.add_argument("--drives", metavar="FILE",
+                        help="candidate excitation points of the test's impulse, TOML or CSV (docs/plan.md)")
+    parser.add_argument("--layout-out", metavar="FILE", help="campaign file of the chosen layout or drive")
     parser.add_argument("--verify", type=int, default=0, metavar="N", help="Monte Carlo repetitions through the FMU")
     parser.add_argument("--seed", type=int, default=0, help="seed of the --verify runs (default 0)")
     parser.add_argument("--verify-out", metavar="DIR", help="keep the --verify campaign folder here")
@@ -39,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     say = (lambda line: print(line, file=sys.stderr)) if not args.json else None
     doc = api.plan(args.campaign, args.method, model=args.model, test=args.test, candidates=args.candidates,
                    sensors=args.sensors, layout_out=args.layout_out,
-                   criterion=args.criterion, target_modes=args.target_modes, verify=args.verify, seed=args.seed,
+                   criterion=args.criterion, target_modes=args.target_modes, drives=args.drives, verify=args.verify, seed=args.seed,
                    verify_out=args.verify_out, jobs=args.jobs, progress=say)
     if args.json:
         print(json.dumps(doc, indent=1))
@@ -68,6 +70,14 @@ def table(doc: dict[str, Any]) -> list[str]:
                          f"{row['median_rel_omega_std']:.3g}, RMS of the targets {row['rms_rel_omega_std']:.3g}"
                          "   sensors: "
                          + " ".join(f"{q[0]}_{n}_{d}" for n, d, q in row["sensors"]))
+    if doc.get("drives"):
+        dr = doc["drives"]
+        lines.append(f"excitation point: node {dr['chosen'][0]} {dr['chosen'][1]} ({dr['candidates']} candidates, "
+                     f"{len(dr['sensors'])} sensors; {len(dr['target_modes'])} target modes) -> {dr['campaign']}")
+        for row in dr["ranking"][:5]:
+            lines.append(f"  node {row['node']:5d} {row['dir']:6s} RMS predicted omega std / omega of the targets "
+                         f"{_num(row['rms_rel_omega_std'])}" + (f", {len(row['missed'])} target modes not seen"
+                                                                if row["missed"] else ""))
     if doc["parameters"]:
         extra = "   achieved      ratio" if ver else ""
         lines.append(f"  {'parameter':16s} {'unit':6s} {'value':>11s} {'predicted std':>14s} {'rel':>9s}{extra}")

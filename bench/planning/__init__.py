@@ -6,7 +6,8 @@ One module per job: :mod:`.response` (noise-free responses from the
 planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
 frequencies and damping), :mod:`.updating` (element parameters from a free
 decay's modes), :mod:`.layouts` (effective independence, D-optimal and,
-:mod:`.targeted`, frequency-targeted sensor layouts), :mod:`.campaign_files`
+:mod:`.targeted`, frequency-targeted sensor layouts), :mod:`.drives`
+(excitation points of a free decay's impulse), :mod:`.campaign_files`
 (the campaign files a plan writes), :mod:`.verify` (``--verify``); the command line prints the
 table (``structbench.cli.plan``).
 
@@ -74,9 +75,33 @@ def _updating(model: Model, specs) -> dict[str, Any]:
     return updating_bounds(model, specs[0])
 
 
+def _drives(model: Model, specs, method: str, drives: str | Path, layout: dict[str, Any] | None, path: Path,
+            test: str, out: str | Path | None, target_modes: int | None, document: dict[str, Any]) -> Path:
+    """Rank the excitation points (``document["drives"]``) on the layout's
+    sensors or the test's, and write the campaign with the best one; its path."""
+    from .campaign_files import test_campaign
+    from .drives import rank_drives, read_drives
+    from .free_decay import modal_channels
+    if method != "modal":
+        raise UserError(f"excitation points are planned for the modal method, not {method}", field="--drives")
+    if len(specs) != 1:
+        raise UserError("excitation points are planned for one test", field="--test")
+    sensors = ([tuple(s) for s in layout["sensors"]] if layout else
+               [(c.dof[0], c.dof[1], c.quantity) for c in modal_channels(specs[0])])
+    if not sensors:
+        raise UserError(f"test {test!r} has no motion sensor", field="sensors")
+    section = rank_drives(model, specs[0], sensors, read_drives(drives, model), target_modes)
+    target = Path(out) if out is not None else Path.cwd() / f"{path.stem}-plan-{test}.toml"
+    target.write_text(test_campaign(path, test, sensors=sensors if layout else None, only=False,
+                                    drive=tuple(section["chosen"])), encoding="utf-8")
+    document["drives"] = section | {"campaign": str(target)}
+    return target
+
+
 def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, test: str | None = None,
          candidates: str | Path | None = None, sensors: int | None = None, layout_out: str | Path | None = None,
-         criterion: str = "frequencies", target_modes: int | None = None, verify: int = 0, seed: int = 0,
+         criterion: str = "frequencies", target_modes: int | None = None, drives: str | Path | None = None,
+         verify: int = 0, seed: int = 0,
          verify_out: str | Path | None = None, jobs: int | None = None,
          progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """The plan document (docs/plan.md) of ``method`` on ``test`` (default: the
@@ -90,7 +115,12 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
     ``criterion`` (``frequencies``: least predicted RMS relative frequency
     error; ``d-optimal``: largest ``log det``; ``effective-independence``)
     chooses written as a campaign file ``layout_out`` (default
-    ``<campaign>-plan-<test>.toml`` in the working folder) and planned on. ``verify`` > 0: that many Monte
+    ``<campaign>-plan-<test>.toml`` in the working folder) and planned on. With
+    ``drives`` (candidate excitation points, modal, a test of one impulse) also
+    ``drives``: the points ranked by the predicted frequency errors on the
+    plan's sensors (the chosen layout's, else the test's), the best written
+    into that campaign file as the impulse's node and direction and planned
+    on. ``verify`` > 0: that many Monte
     Carlo repetitions (seed ``seed``) through the FMU and the method, ``verify``
     holding predicted against achieved standard deviations."""
     from structbench.harness.campaign import load_campaign
@@ -118,6 +148,13 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
         loaded = load_campaign(run_file)
         name, specs = _chosen_tests(loaded, name)
         say(f"layout: {document['layout']['chosen']} layout written to {run_file}")
+    if drives is not None:
+        run_file = _drives(planning, specs, method, drives, document.get("layout"), path, name, layout_out,
+                           target_modes, document)
+        loaded = load_campaign(run_file)
+        name, specs = _chosen_tests(loaded, name)
+        say(f"excitation point: node {document['drives']['chosen'][0]} {document['drives']['chosen'][1]}, "
+            f"written to {run_file}")
     document |= {"least-squares": _least_squares, "modal": _modal, "updating": _updating}[method](planning, specs)
     document["bound"] = BOUNDS[method]
     if verify:

@@ -1,5 +1,6 @@
 """Campaign files written by a plan: one test of a campaign, with its
-sensors replaced (a planned layout) and/or its repetitions set (``--verify``).
+sensors replaced (a planned layout), its impulse moved (a planned
+excitation point) and/or its repetitions set (``--verify``).
 
 The campaign's own TOML is parsed (``tomllib``), the ``[[tests]]`` entry
 named ``test`` kept (alone, for verification), and the result written back
@@ -66,11 +67,14 @@ def dumps(data: dict[str, Any], prefix: str = "") -> str:
 
 
 def test_campaign(path: str | Path, test: str, sensors: Sequence[tuple[int, str, str]] | None = None,
-                  repetitions: int | None = None, seed: int | None = None, only: bool = True) -> str:
+                  repetitions: int | None = None, seed: int | None = None, only: bool = True,
+                  drive: tuple[int, str] | None = None) -> str:
     """TOML text of the campaign at ``path`` with ``[[tests]]`` entry ``test``
     changed: ``sensors`` (node, dir, quantity) replace its sensors (one entry
-    each, in order), ``repetitions`` and ``seed`` (the campaign's) set;
-    ``only``: drop the other tests and the ``[check]`` gates."""
+    each, in order), ``drive`` (node, dir) is the node and direction of its
+    impulse (its one ``impulse`` excitation entry), ``repetitions`` and
+    ``seed`` (the campaign's) set; ``only``: drop the other tests and the
+    ``[check]`` gates."""
     path = Path(path)
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     tests = data.get("tests", [])
@@ -81,6 +85,9 @@ def test_campaign(path: str | Path, test: str, sensors: Sequence[tuple[int, str,
     entry = chosen[0]
     if sensors is not None:
         entry["sensors"] = [{"nodes": [int(n)], "dirs": [d], "quantities": [q]} for n, d, q in sensors]
+    if drive is not None:
+        (item,) = [e for e in entry.get("excitation", []) if e.get("kind") == "impulse"]
+        item["node"], item["dir"] = int(drive[0]), str(drive[1])
     if repetitions is not None:
         entry["repetitions"] = int(repetitions)
     if only:
