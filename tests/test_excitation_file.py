@@ -162,6 +162,22 @@ def test_bad_signal_files_name_the_file_and_field(tmp_path, excitation, files, m
     assert "c.toml:" in str(err.value) and message in str(err.value)
 
 
+def test_uff_labels_left_blank_read_as_no_unit(tmp_path):
+    """A UFF 58 record written without unit labels holds ``NONE`` (pyuff's and
+    other writers' empty label): the time is then in s and the force needs
+    ``unit``; with it the record reads as a labelled one."""
+    t = np.arange(5) * 0.01
+    pyuff.UFF(str(tmp_path / "drive.uff")).write_sets([pyuff.prepare_58(
+        func_type=1, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1, id1="drive", x=t, data=np.arange(5.0),
+        abscissa_spacing=1, abscissa_spec_data_type=17, ordinate_spec_data_type=13, orddenom_spec_data_type=0,
+        z_axis_spec_data_type=0, rsp_ent_name="lab", ref_ent_name="lab")], "overwrite")
+    assert "NONE" in (tmp_path / "drive.uff").read_text()
+    with pytest.raises(UserError, match=r"drive.uff: drive: no unit \(give unit\) is not a force unit"):
+        load_campaign(campaign(tmp_path, 'kind = "recorded"\nnode = 3\ndir = "x"\nfile = "drive.uff"'))
+    read = read_recording(tmp_path / "drive.uff", None, "force", unit="kN")
+    assert read.dt == pytest.approx(0.01, rel=1e-9) and read.values.tolist() == pytest.approx([0, 1e3, 2e3, 3e3, 4e3])
+
+
 def test_hdf5_without_a_unit_and_ground_on_a_modal_model(tmp_path):
     with h5py.File(tmp_path / "a.h5", "w") as f:
         f.create_dataset("a", data=np.ones(5)).attrs["dt"] = 0.01

@@ -298,6 +298,12 @@ def _csv(path: Path, channel: str | None) -> tuple[str, str | None, np.ndarray, 
     return columns[j][0], columns[j][1], table[:, 0] * TIME_UNITS[time_unit], table[:, j]
 
 
+def _uff_label(dataset: dict, key: str) -> str | None:
+    """A UFF 58 units label, ``None`` when blank or ``NONE`` (UFF writers' empty label)."""
+    label = str(dataset.get(key, "")).strip()
+    return None if label.upper() in ("", "NONE") else label
+
+
 def _uff(path: Path, channel: str | None) -> tuple[str, str | None, np.ndarray, np.ndarray]:
     import pyuff
     try:
@@ -308,10 +314,10 @@ def _uff(path: Path, channel: str | None) -> tuple[str, str | None, np.ndarray, 
     d = sets[_pick([str(s.get("id1", "")).strip() for s in sets], channel, "datasets (58, ID line 1)")]
     if d.get("func_type") not in (0, 1):
         raise SignalFileError(f"dataset {d.get('id1')!r} is function type {d.get('func_type')}, not a time record")
-    time_unit = normalize_unit(str(d.get("abscissa_axis_units_lab", "")).strip() or "s")
+    time_unit = normalize_unit(_uff_label(d, "abscissa_axis_units_lab") or "s")
     if time_unit not in TIME_UNITS:
         raise SignalFileError(f"abscissa unit {time_unit!r} is not a time unit")
-    unit = str(d.get("ordinate_axis_units_lab", "")).strip() or None
+    unit = _uff_label(d, "ordinate_axis_units_lab")
     return str(d["id1"]).strip(), unit, np.asarray(d["x"], float) * TIME_UNITS[time_unit], np.asarray(d["data"])
 
 
