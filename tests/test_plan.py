@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -272,3 +273,34 @@ def test_least_squares_errors_in_variables_monte_carlo(tmp_path: Path) -> None:
                                                                clean.sigma)).values)
     ratio = np.std(values, axis=0, ddof=1) / predicted
     assert 0.85 < np.median(ratio) < 1.12, ratio  # 0.96 here; first order alone (M2 = 0): 1.19
+
+
+def test_files_a_plan_writes_keep_the_campaigns_relative_paths(tmp_path: Path) -> None:
+    """A test driven by a recorded force (CSV beside the campaign) with a
+    ``[prior]`` model file: ``--verify`` (its campaign written into another
+    folder) runs, and the layout-style file written elsewhere loads with the
+    same signal, structure and prior."""
+    from structbench.planning.campaign_files import test_campaign
+    project = tmp_path / "project"
+    (project / "records").mkdir(parents=True)
+    chain_model(project / "two.toml", [1.0, 2.0], [30.0, 20.0])
+    chain_model(project / "design.toml", [1.1, 2.1], [33.0, 18.0])
+    t = np.arange(401) * 0.01
+    force = np.cos(2.0 * t) + 0.5 * np.sin(7.0 * t)
+    (project / "records" / "drive.csv").write_text(
+        "time [s],F [kN]\n" + "".join(f"{a:.6g},{b / 1e3:.9g}\n" for a, b in zip(t, force)))
+    text = harmonic_campaign(project / "c.toml", project / "two.toml", 0.01, 4.0, 2.0).read_text()
+    text = text.replace('kind = "harmonic"', 'kind = "recorded"\nfile = "records/drive.csv"')
+    text = text.replace("amplitude = 1.0\nomega = 2.0\n", "").replace("seed = 5\n", 'seed = 5\n[prior]\nmodel = "design.toml"\n')
+    (project / "c.toml").write_text(text)
+    doc = sb.plan(project / "c.toml", "least-squares", verify=3, seed=2, jobs=1)
+    assert doc["verify"]["runs"] == 3 and all(p["achieved_std"] > 0 for p in doc["verify"]["parameters"])
+    elsewhere = tmp_path / "elsewhere" / "c.toml"
+    elsewhere.parent.mkdir()
+    elsewhere.write_text(test_campaign(project / "c.toml", "sine", repetitions=2))
+    moved, original = sb.load_campaign(elsewhere), sb.load_campaign(project / "c.toml")
+    (item,) = moved.tests[0].excitation
+    np.testing.assert_array_equal(item.force(t, 0.01), original.tests[0].excitation[0].force(t, 0.01))
+    assert item.force(t[:3], 0.01) == pytest.approx(force[:3], rel=1e-8)
+    assert moved.model.values.tolist() == original.model.values.tolist()
+    assert Path(tomllib.loads(elsewhere.read_text())["prior"]["model"]) == (project / "design.toml").resolve()

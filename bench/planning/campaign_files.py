@@ -4,10 +4,10 @@ excitation point) and/or its repetitions set (``--verify``).
 
 The campaign's own TOML is parsed (``tomllib``), the ``[[tests]]`` entry
 named ``test`` kept (alone, for verification), and the result written back
-as TOML that ``structbench run`` takes as is. A relative ``structure`` path
-(a TOML model or FMU file) is made absolute so the file works from any
-folder; other relative paths (recorded signals) are left alone and fail
-(``structbench run`` names them) when the file is written elsewhere.
+as TOML that ``structbench run`` takes as is. The campaign's relative
+paths (a TOML model or FMU ``structure``, ``[prior] model``, every test's
+recorded signal ``file``) are made absolute, so the file works from any
+folder (``--verify`` writes it into a temporary one).
 """
 from __future__ import annotations
 
@@ -96,6 +96,17 @@ def test_campaign(path: str | Path, test: str, sensors: Sequence[tuple[int, str,
     if seed is not None:
         data["seed"] = int(seed)
     structure = data.get("structure")
-    if isinstance(structure, str) and (structure.endswith((".toml", ".fmu"))) and not Path(structure).is_absolute():
-        data["structure"] = str((path.parent / structure).resolve())
+    if isinstance(structure, str) and (structure.endswith((".toml", ".fmu"))):
+        data["structure"] = _absolute(path, structure)
+    prior = data.get("prior")
+    if isinstance(prior, dict) and isinstance(prior.get("model"), str) and prior["model"].endswith((".toml", ".fmu")):
+        prior["model"] = _absolute(path, prior["model"])
+    for item in (e for t in data.get("tests", []) for e in t.get("excitation", []) if isinstance(e, dict)):
+        if isinstance(item.get("file"), str):
+            item["file"] = _absolute(path, item["file"])
     return dumps(data)
+
+
+def _absolute(campaign: Path, name: str) -> str:
+    """``name`` (a path relative to the campaign file's folder, or absolute) as an absolute path."""
+    return name if Path(name).is_absolute() else str((campaign.parent / name).resolve())
