@@ -90,7 +90,8 @@ def _drives(model: Model, specs, method: str, drives: str | Path, layout: dict[s
                [(c.dof[0], c.dof[1], c.quantity) for c in modal_channels(specs[0])])
     if not sensors:
         raise UserError(f"test {test!r} has no motion sensor", field="sensors")
-    section = rank_drives(model, specs[0], sensors, read_drives(drives, model), target_modes)
+    section = rank_drives(model, specs[0], sensors, read_drives(drives, model), target_modes,
+                          targets=layout["target_modes"] if layout else None)
     target = Path(out) if out is not None else Path.cwd() / f"{path.stem}-plan-{test}.toml"
     target.write_text(test_campaign(path, test, sensors=sensors if layout else None, only=False,
                                     drive=tuple(section["chosen"])), encoding="utf-8")

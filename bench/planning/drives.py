@@ -12,8 +12,10 @@ chosen layout's with ``--candidates``, else the test's modal channels): the
 modes visible from that point (:func:`.free_decay.visible`) and their
 information ``J = sum_c L_c^T Q L_c / sigma_c^2`` on those modes alone, as
 ``plan --method modal`` computes it for a test driven there. The target
-modes are the lowest ``target_modes`` (default all) of the modes below
-0.8 x Nyquist that some candidate makes visible. Ranking: fewest target
+modes are the layout's (with ``--candidates``), else the lowest
+``target_modes`` (default all) of the modes below 0.8 x Nyquist that some
+candidate determines to :data:`~.layouts.PRECISE` (relative omega standard
+error; the layouts' rule for the modes planned for). Ranking: fewest target
 modes left invisible (``missed``), then least RMS of the predicted
 relative frequency errors ``std(omega_r) / omega_r`` over the target modes
 seen. Cost: one ``Q`` (O(m R^2)) per distinct set of visible modes and
@@ -21,7 +23,7 @@ O(C R^3) per candidate.
 
 Fails (:class:`UserError`) for a test that is not one impulse, an
 unreadable file, a candidate that is not a model DOF, no candidate, or
-target modes outside 1..(modes some candidate shows).
+target modes outside 1..(modes some candidate determines).
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ from structbench.models import Model
 from structbench.models.errors import UserError
 
 from . import free_decay as fd
+from .layouts import PRECISE
 
 
 def read_drives(path: str | Path, model: Model) -> list[tuple[int, str]]:
@@ -112,10 +115,11 @@ def _bound(d: fd.Decay, rows: np.ndarray, orders: np.ndarray, ratio: np.ndarray,
 
 
 def rank_drives(model: Model, test: TestSpec, sensors: list[tuple[int, str, str]], drives: list[tuple[int, str]],
-                target_modes: int | None = None) -> dict[str, Any]:
+                target_modes: int | None = None, targets: list[float] | None = None) -> dict[str, Any]:
     """The ``drives`` section of a plan: every candidate excitation point of
     ``test``'s impulse scored on the channels ``sensors`` (node, dir,
-    quantity), best first (module docstring)."""
+    quantity), best first (module docstring); ``targets`` (rad/s, a layout's
+    target modes) replace the target modes' choice."""
     impulse = the_impulse(test)
     base = fd.decay(model, test)
     rows = np.array([model.dof_index(n, d) for n, d, _ in sensors])
@@ -131,24 +135,28 @@ def rank_drives(model: Model, test: TestSpec, sensors: list[tuple[int, str, str]
         s, r = _bound(d, rows, orders, ratio, cache)
         seen.append(s)
         rel.append(r)
-    seen_any = np.any(seen, axis=0)
-    if not seen_any.any():
-        raise UserError("no mode of the test is visible from any candidate excitation point", field="--drives")
-    count = int(seen_any.sum()) if target_modes is None else int(target_modes)
-    if not 1 <= count <= int(seen_any.sum()):
-        raise UserError(f"must be between 1 and the {int(seen_any.sum())} modes the candidate excitation points "
-                        "show", field="--target-modes")
-    targets = np.flatnonzero(seen_any)[:count]
+    if targets is not None:
+        index = np.flatnonzero(np.isclose(base.omega[:, None], np.asarray(targets)[None, :], rtol=1e-9).any(axis=1))
+    else:
+        good = np.flatnonzero(np.any(np.asarray(rel) < PRECISE, axis=0))
+        if not good.size:
+            raise UserError(f"no mode of the test is determined to {PRECISE:.1%} from any candidate excitation point",
+                            field="--drives")
+        count = good.size if target_modes is None else int(target_modes)
+        if not 1 <= count <= good.size:
+            raise UserError(f"must be between 1 and the {good.size} modes the candidate excitation points "
+                            "determine", field="--target-modes")
+        index = good[:count]
     ranking = []
     for (n, di), s, r in zip(drives, seen, rel):
-        hit = targets[s[targets]]
+        hit = index[s[index]]
         ranking.append({"node": int(n), "dir": di,
-                        "missed": [float(w) for w in base.omega[targets[~s[targets]]]],
+                        "missed": [float(w) for w in base.omega[index[~s[index]]]],
                         "rms_rel_omega_std": float(np.sqrt(np.mean(r[hit] ** 2))) if hit.size else None,
                         "median_rel_omega_std": float(np.median(r[hit])) if hit.size else None})
     ranking.sort(key=lambda row: (len(row["missed"]), np.inf if row["rms_rel_omega_std"] is None
                                   else row["rms_rel_omega_std"]))
     return {"candidates": len(drives), "impulse": float(impulse.impulse),
-            "target_modes": [float(w) for w in base.omega[targets]],
+            "target_modes": [float(w) for w in base.omega[index]],
             "chosen": [ranking[0]["node"], ranking[0]["dir"]],
             "sensors": [list(s) for s in sensors], "ranking": ranking}
