@@ -64,17 +64,23 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
   share, :func:`identifier.modal.harmonics_poles.coherent_share`: over ``share_bound(D) = 1 -
   SHARE_P^(1 / sqrt(D))``, as a mode's exceeds with probability about ``SHARE_P``);
 - a narrow damped SSI mode (``h < H_MIN``) at a line standing ``LINE`` times over its neighbours'
-  median that one sinusoid holds over ``share_bound(D)`` of (``coherent``): a weak harmonic that SSI
+  median (or over the spatial test's bar) that one sinusoid holds over ``share_bound(D)`` of
+  (``coherent``; the share is measured in every sensor's lines when the record has 2 channels or
+  more, :func:`identifier.modal.harmonics_poles.coherent_share`): a weak harmonic that SSI
   fitted with a pole of a few decay times (its kurtosis is a random response's when the band holds
   more random power than the harmonic); when the pole's own band shows none, at the strongest such
   line within three standard deviations of its poles' frequencies over the orders (a weak line's
   poles stray several lines from it, and the pole's band then holds only its skirt);
-- any other candidate of ``z >= LIKELY`` that no narrow damped SSI mode explains (none within
+- any other candidate of ``z >= LIKELY``, or any line of the spatial test whatever its kurtosis
+  (``spectral``: in every sensor's lines, the whitened periodogram over Hotelling's quantile at
+  ``SPATIAL_P / lines`` times its running median, :mod:`identifier.modal.harmonics_spatial`; a
+  random response gives such a line somewhere in the record with probability about
+  ``SPATIAL_P``), that no narrow damped SSI mode explains (none within
   ``SKIRT`` half-power bandwidths ``zeta_r omega_r`` plus 1.5 lines whose bandwidth ``2 h`` is under
   ``WINDOW`` lines: the running median does not follow so narrow a peak, whose random spikes are
   lines; a broad mode's peak is smooth over ``WINDOW`` lines, and a line on it is a harmonic on the
-  mode): ``kurtosis``. A sure line at a narrow damped mode is that mode's peak and not listed (it
-  was subtracted: the mode stays, slightly biased) when its drop counted over ``min(K, D)`` values is
+  mode): ``kurtosis`` (or ``spectral``). A sure line at a narrow damped mode is that mode's peak and
+  not listed (it was subtracted: the mode stays, slightly biased) when its drop counted over ``min(K, D)`` values is
   under ``SURE``: a mode's envelope takes about one independent value per decay time, so a lightly
   damped mode of a short record (few values, many blocks) has a low kurtosis far more often than
   ``3 / sqrt(K)`` says.
@@ -103,7 +109,7 @@ import numpy as np
 
 from .harmonics_lines import (BLOCKS, CONC, DOUBTFUL, H_MIN, LIKELY, LINE, MAX_LINES, RISE, SKIRT, STILL,  # noqa: F401
                               SURE, WINDOW, Line, _spectrum, background, band_lines, detect, fit, kurtosis, measure,
-                              subtract)
+                              spatial_excess, subtract)
 from .harmonics_poles import _pole_line, coherent_share, conc, hann_gain, share_bound  # noqa: F401
 from .support import ZETA_FLOOR
 
@@ -134,7 +140,7 @@ def screen(records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> 
     tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
     cleaned, sure, doubtful = [], [], []
     for y in records:
-        found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL]
+        found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL or ln.evidence >= 1]
         here = [ln for ln in found if ln.z >= SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
         t = np.arange(y.shape[1]) * dt
         again = [replace(k, amplitude=fit(y, k.omega, t)) for k in known]
@@ -167,7 +173,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
     found = [Line(ln.omega, ln.amplitude, ln.kurtosis, ln.ratio, ln.blocks, ln.test) for ln in screened.lines]
     doubtful = list(screened.doubtful)
     t = np.arange(n) * dt
-    X = P = bg = None
+    X = P = bg = over = None
     for i in range(omega.size):
         close = max(tol, 1e-3 * omega[i])
         still = max(zeta[i], 0.0) * omega[i] * total < STILL  # signed: poles that grow at half the orders
@@ -177,7 +183,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                 drop[i] = True
                 near[0].test, near[0].zeta = "kurtosis+damping", float(zeta[i])
                 continue
-            line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close), None)
+            line = next((ln for ln in doubtful if abs(ln.omega - omega[i]) <= close and ln.kurtosis < DOUBTFUL), None)
             if line is None:  # no spectral line: the kurtosis alone
                 amplitude = fit(y, float(omega[i]), t)
                 kappa, used = kurtosis(y, float(omega[i]), dt, BLOCKS[1], amplitude, np.mean(y**2, axis=1))
@@ -197,7 +203,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             if P is None:
                 X = _spectrum(y)
                 P = np.sum(np.abs(X)**2, axis=0)
-                bg = background(P)
+                bg, over = background(P), spatial_excess(X)
             w, h = float(omega[i]), float(zeta_abs[i] * omega[i] / bin_w)
             j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
             rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
@@ -209,7 +215,7 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                 share, ratio, k = _beside(y, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)
             sinusoid = share >= share_bound(2 * np.pi * h)  # NaN: no peak
             test = "line" if line_like and sinusoid else ""
-            if not test and h < H_MIN and ratio >= LINE and sinusoid:
+            if not test and h < H_MIN and (ratio >= LINE or (k >= 0 and over[k] >= 1)) and sinusoid:
                 test, j = "coherent", k
             if not test:
                 continue
@@ -230,7 +236,11 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
         at = np.abs(ln.omega - omega[narrow]) < reach  # envelope has about zeta omega T independent values
         if at.any() and (3 - ln.kurtosis) * np.sqrt(min(ln.blocks, decays[at].min())) / 3 < SURE:
             found.remove(ln)
-    found += [ln for ln in doubtful if ln.z >= LIKELY and not np.any(np.abs(ln.omega - omega[narrow]) < reach)]
+    for ln in doubtful:  # a line alone (its kurtosis, or its evidence against the record's random lines)
+        if ((ln.z >= LIKELY or ln.evidence >= 1) and not np.any(np.abs(ln.omega - omega[narrow]) < reach)
+                and all(abs(ln.omega - f.omega) > tol for f in found)):
+            ln.test = "kurtosis" if ln.z >= LIKELY else "spectral"
+            found.append(ln)
     return drop, sorted(found, key=lambda x: x.omega)
 
 

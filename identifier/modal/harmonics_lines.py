@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
+from .harmonics_spatial import spatial_bar, whitened
 from .support import MIN_DECAYS
 
 LINE = 20.0  # least periodogram line over the median of its neighbours ...
@@ -42,6 +43,7 @@ class Line:
     test: str = "kurtosis"
     zeta: float | None = None
     on_mode: float | None = None
+    evidence: float = float("nan")  # the line over its record-wise bar (spatial_excess); >= 1: a line
 
     @property
     def z(self) -> float:
@@ -138,31 +140,38 @@ def band_lines(P: np.ndarray, bg: np.ndarray, j: int, n: int, omega: float, dt: 
     return best
 
 
-def measure(y: np.ndarray, dt: float, X: np.ndarray, P: np.ndarray, bg: np.ndarray, j: int) -> Line | None:
+def measure(y: np.ndarray, dt: float, X: np.ndarray, P: np.ndarray, bg: np.ndarray, j: int,
+            evidence: float = float("nan"), peak: np.ndarray | None = None) -> Line | None:
     """The line at periodogram index ``j`` of ``y`` (m, n), frequency
     refined, amplitude fitted, band kurtosis measured (module docstring);
-    ``None`` when a stronger value passes every band (:func:`band_lines`)."""
+    when a stronger value passes every band (:func:`band_lines`): ``None``,
+    or, for a line of ``evidence >= 1`` (:func:`spatial_excess`), the line
+    without a kurtosis (NaN, ``blocks`` 0). ``peak`` (lines,): refine the
+    frequency on it alone (log-parabola), for a line that the summed
+    periodogram ``P`` does not show."""
     m, n = y.shape
     t = np.arange(n) * dt
-    a, b, c = np.log(P[j - 1:j + 2])
+    a, b, c = np.log(np.maximum((P if peak is None else peak)[j - 1:j + 2], 1e-300))
     delta = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c < 0 else 0.0
     bin_w = 2 * np.pi / (n * dt)
     omega = (j + float(np.clip(delta, -0.5, 0.5))) * bin_w
     h = 0.05 * bin_w
     window = np.hanning(n)
     p0, p1, p2 = (_power(y, omega + d, t, window) for d in (-h, 0.0, h))
-    if p0 - 2 * p1 + p2 < 0:
+    if peak is None and p0 - 2 * p1 + p2 < 0:
         omega += float(np.clip(0.5 * h * (p0 - p2) / (p0 - 2 * p1 + p2), -h, h))
     blocks = band_lines(P, bg, j, n, omega, dt)
-    if not blocks:
+    if not blocks and not evidence >= 1:
         return None
     amplitude = fit(y, omega, t)
+    if not blocks:
+        return Line(float(omega), amplitude, float("nan"), float(P[j] / max(bg[j], 1e-300)), 0, evidence=evidence)
     lo, hi = max(j - WINDOW, 0), min(j + WINDOW + 1, P.size)
     near = np.r_[lo:max(j - 3, lo), min(j + 4, hi):hi]
     rms2 = np.mean(y**2, axis=1)
     noise = np.median(np.abs(X[:, near])**2, axis=1) * rms2 + 1e-300
     kappa, used = kurtosis(y, omega, dt, blocks, amplitude, noise)
-    return Line(float(omega), amplitude, kappa, float(P[j] / max(bg[j], 1e-300)), used)
+    return Line(float(omega), amplitude, kappa, float(P[j] / max(bg[j], 1e-300)), used, evidence=evidence)
 
 
 def background(P: np.ndarray) -> np.ndarray:
@@ -174,7 +183,10 @@ def background(P: np.ndarray) -> np.ndarray:
 
 def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
     """The lines of a stationary record ``y`` (m, n) sampled every ``dt`` s (module docstring),
-    strongest first; none when the record is under ``4 WINDOW`` samples."""
+    strongest first, then those that stand out only in every sensor's lines
+    (local maxima of :func:`spatial_excess` over 7 lines, at 1 or more, more than 3 lines from a line
+    of the first kind), each with its ``evidence``; none when the record is under ``4 WINDOW``
+    samples."""
     m, n = y.shape
     if n < 4 * WINDOW:
         return []
@@ -186,9 +198,33 @@ def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
     k = np.flatnonzero(peak & (ratio >= LINE))
     k = k[(k >= 3) & (k <= P.size - 4)]
     k = k[np.argsort(-ratio[k])][:max_lines]
+    over = spatial_excess(X)
+    tops = over >= maximum_filter1d(over, size=7, mode="nearest")
+    kw = np.flatnonzero(tops & (over >= 1))
+    kw = kw[(kw >= 3) & (kw <= P.size - 4) & np.all(np.abs(kw[:, None] - k[None, :]) > 3, axis=1)]
+    kw = kw[np.argsort(-over[kw])][:max_lines]
     lines = []
-    for j in k:
-        ln = measure(y, dt, X, P, bg, int(j))
+    for j in np.r_[k, kw].astype(int):
+        ln = measure(y, dt, X, P, bg, int(j), float(over[j]), None if j in k else over)
         if ln is not None:
             lines.append(ln)
     return lines
+
+
+def spatial_excess(X: np.ndarray) -> np.ndarray:
+    """``T_j`` over its running median (:func:`background` over the lines it is defined at), over
+    :func:`identifier.modal.harmonics_spatial.spatial_bar` for every line of ``X`` (m, lines):
+    1 or more passes the spatial test; 0 where it is undefined (within ``2 WINDOW`` lines of either
+    end, one channel)."""
+    out = np.zeros(X.shape[1])
+    bar = spatial_bar(X.shape[0], X.shape[1], WINDOW)
+    if not np.isfinite(bar):
+        return out
+    T = whitened(X, WINDOW)
+    ok = np.flatnonzero(np.isfinite(T))
+    if ok.size <= 4 * WINDOW:
+        return out
+    seg = T[ok[0]:ok[-1] + 1]
+    out[ok[0]:ok[-1] + 1] = seg / np.maximum(background(seg), 1e-300) / bar
+    out[:ok[0] + WINDOW] = out[ok[-1] + 1 - WINDOW:] = 0.0  # the running median there is one-sided
+    return out

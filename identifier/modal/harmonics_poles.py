@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .harmonics_lines import CONC, H_MIN, _spectrum, fit
+from .harmonics_lines import CONC, H_MIN, WINDOW, _spectrum, fit
+from .harmonics_spatial import GAP, independent_lines
 
 SHARE_P = 1e-3  # chance that a mode's random response gives a coherent share as large (coherent_share)
 LINE_P = 1e-3  # chance that a mode's band holds a line over the line test's threshold (conc)
@@ -91,12 +92,42 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     a = fit(y, w, t)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
     rest = y - np.outer(a.real, np.cos(w * t)) + np.outer(a.imag, np.sin(w * t))
-    Pr = np.sum(np.abs(_spectrum(rest, rms)[:, band])**2, axis=0)
-    before = float(np.sum(P[band] - bg[band]))
+    Xr = _spectrum(rest, rms)
     ratio = float(P[j] / max(bg[j], 1e-300)) / hann_gain(w / bin_w - j)  # the line's power wherever it falls
+    white = _whitened_share(_spectrum(y, rms), Xr, j0, r)
+    if np.isfinite(white):
+        return white, ratio, j
+    Pr = np.sum(np.abs(Xr[:, band])**2, axis=0)
+    before = float(np.sum(P[band] - bg[band]))
     if before <= 0:
         return float("nan"), ratio, j
     return 1.0 - float(np.sum(Pr - bg[band])) / before, ratio, j
+
+
+def _whitened_share(X: np.ndarray, Xr: np.ndarray, j0: int, r: int) -> float:
+    """:func:`coherent_share` in every sensor's lines: ``1 - sum_B (T'_k - b) / sum_B (T_k - b)``
+    with ``T_k = X_k^H S^-1 X_k`` over the band ``B = j0 - r .. j0 + r`` of the transforms ``X``
+    (m, lines) of the record and ``Xr`` of its residual, ``S`` the mean of ``X_k X_k^H`` over the
+    ``N = 2 (WINDOW - GAP)`` lines ``r + GAP + 1`` to ``r + WINDOW`` either side of ``j0``, and ``b
+    = m N_e / (N_e - m)`` the expected ``T`` of a random line (complex Wishart, ``N_e``
+    independent lines: :func:`identifier.modal.harmonics_spatial.independent_lines`). The random
+    background of ``m`` channels scatters as a chi-square of ``2 m`` degrees of freedom about ``b``, so a sinusoid of another
+    shape than the background's leaves far less of the peak than in the summed periodogram; a
+    mode's random response leaves the same share (its own shape dominates both sums). NaN with one
+    channel, ``N_e < 2 m``, a band off the spectrum or no excess."""
+    m, L = X.shape
+    n_e = independent_lines(WINDOW)
+    if m < 2 or n_e < 2 * m or j0 - r - WINDOW < 1 or j0 + r + WINDOW >= L:
+        return float("nan")
+    d = np.arange(r + GAP + 1, r + WINDOW + 1)
+    ring = X[:, np.r_[j0 - d, j0 + d]]
+    S = ring @ ring.conj().T / ring.shape[1]
+    S += 1e-12 * np.trace(S).real / m * np.eye(m)
+    band = np.arange(j0 - r, j0 + r + 1)
+    b = m * n_e / (n_e - m)
+    T, Tr = (np.real(np.sum(np.conj(Z[:, band]) * np.linalg.solve(S, Z[:, band]), axis=0)) for Z in (X, Xr))
+    before = float(np.sum(T - b))
+    return 1.0 - float(np.sum(Tr - b)) / before if before > 0 else float("nan")
 
 
 def hann_gain(offset: float) -> float:

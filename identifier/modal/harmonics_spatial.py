@@ -1,0 +1,87 @@
+"""The spatial line test: a sinusoid's spectral line against the random
+response of every sensor, whitened by the channels' local cross-spectral
+matrix (the third test of :mod:`identifier.modal.harmonics`).
+
+The periodogram summed over the channels scatters about its running median
+like one exponential when one input drives the structure (every channel's
+random response at a frequency is then the same shape times one random
+number), so that a weak line must stand ``LINE`` times over it. A sinusoid
+from another input (a machine elsewhere on the structure) has another
+shape, and the random response leaves the other directions of the ``m``
+channels to the sensors' noise. With ``X_j`` (m,) the Hann-windowed
+transforms of the channels at line ``j`` and ``S_j`` (m, m) the mean of
+``X_k X_k^H`` over the lines ``GAP + 1`` to ``WINDOW`` either side
+(``N = 2 (WINDOW - GAP)`` lines; ``WINDOW`` is
+:data:`identifier.modal.harmonics_lines.WINDOW`, passed as ``window``):
+
+    T_j = X_j^H S_j^-1 X_j
+
+is, for a stationary Gaussian response whose cross-spectrum is constant
+over the window, Hotelling's ``T^2`` of complex data: ``(N_e - m + 1) T /
+(m N_e) ~ F(2 m, 2 (N_e - m + 1))`` with ``N_e = N / HANN`` independent
+lines, whatever
+the channels' coherence: a chi-square of ``2 m`` degrees of freedom for
+large ``N_e``, not an exponential. ``T_j`` over its running median (lines 3
+to ``WINDOW`` either side) is compared with that law's quantile over its
+median at the false-alarm probability ``SPATIAL_P`` over every line of the
+record (:func:`spatial_bar`). A sinusoid of the random response's own
+shape gains nothing (it is a scaled line of the summed periodogram).
+A Hann-windowed line is ``X_k = (Y_k - (Y_(k-1) + Y_(k+1)) / 2) / 2`` of the
+unwindowed, independent ``Y``: neighbours correlate by -2/3 and lines two
+apart by 1/6, so that a mean of ``N`` outer products holds ``N / (1 + 2
+(4/9 + 1/36)) = N / 1.94`` independent ones (``HANN``).
+
+Shapes: ``X`` (m, lines) complex; frequencies in spectral lines. Fails
+(gives no bar, NaN) with fewer than ``2 m`` lines in the window (too many
+channels: the cross-spectrum estimate is singular) or a single channel;
+a narrow mode's peak whose shape differs from its surroundings' also
+stands out (the callers keep lines that a narrow SSI mode explains).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+GAP = 3  # lines either side of j left out of S_j (a sinusoid's main lobe and scalloping)
+SPATIAL_P = 1e-3  # chance that a record's random response gives any line over the bar
+HANN = 1 + 2 * ((2 / 3)**2 + (1 / 6)**2)  # lines per independent one in a Hann cross-spectrum mean
+
+
+def independent_lines(window: int) -> float:
+    """``N_e``: independent lines in the cross-spectrum estimate of :func:`whitened` over ``window``."""
+    return 2 * (window - GAP) / HANN
+
+
+def spatial_bar(m: int, lines: int, window: int) -> float:
+    """The least ``T_j`` over its running median that a stationary random response of ``m``
+    channels gives at any of ``lines`` lines with probability ``SPATIAL_P``: the quantile of
+    Hotelling's law (module docstring) at ``SPATIAL_P / lines`` over its median; NaN when
+    ``m < 2`` or ``N_e < 2 m``."""
+    n_e = independent_lines(window)
+    if m < 2 or n_e < 2 * m:
+        return float("nan")
+    law = stats.f(2 * m, 2 * (n_e - m + 1))
+    return float(law.isf(SPATIAL_P / max(lines, 1)) / law.median())
+
+
+def whitened(X: np.ndarray, window: int, chunk: int = 4096) -> np.ndarray:
+    """``T_j = X_j^H S_j^-1 X_j`` (lines,) of the transforms ``X`` (m, lines) (module docstring);
+    NaN within ``window`` lines of either end. ``S_j`` gets a ridge of 1e-12 of its trace so that
+    identical channels do not make it singular."""
+    m, L = X.shape
+    T = np.full(L, np.nan)
+    if L <= 2 * window + 1:
+        return T
+    n = 2 * (window - GAP)
+    eye = np.eye(m)
+    for start in range(window, L - window, chunk):
+        stop = min(start + chunk, L - window)
+        lo, hi = start - window, stop + window
+        Xc = X[:, lo:hi]
+        cum = np.concatenate([np.zeros((1, m, m), complex), np.cumsum(np.einsum("mj,nj->jmn", Xc, Xc.conj()), axis=0)])
+        j = np.arange(start, stop) - lo
+        S = (cum[j - GAP] - cum[j - window] + cum[j + window + 1] - cum[j + GAP + 1]) / n
+        S += 1e-12 * np.einsum("jii->j", S).real[:, None, None] / m * eye
+        x = X[:, start:stop].T[:, :, None]
+        T[start:stop] = np.real(np.sum(np.conj(x) * np.linalg.solve(S, x), axis=(1, 2)))
+    return T
