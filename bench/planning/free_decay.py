@@ -190,8 +190,13 @@ def visible(d: Decay, beta: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 
 def omega_zeta_covariance(d: Decay, J: np.ndarray) -> np.ndarray:
     """Covariance (R, 2, 2) of ``(omega_r, zeta_r)`` from the information ``J``
-    (2R, 2R) on ``(alpha, wd)``: ``T J^-1 T^T`` per mode."""
-    cov = la.inv(J)
+    (2R, 2R) on ``(alpha, wd)``: ``T J^-1 T^T`` per mode. ``J`` is inverted
+    equilibrated, ``J^-1 = D (D J D)^-1 D`` with ``D = diag(J)^-1/2`` (its
+    entries span many decades between a slow, long-lived mode and a fast
+    one)."""
+    diag = np.diag(J)
+    scale = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    cov = scale[:, None] * la.inv(scale[:, None] * J * scale[None, :]) * scale[None, :]
     al, wd, w = d.alpha, d.wd, d.omega
     T = np.zeros((w.size, 2, 2))
     T[:, 0, 0], T[:, 0, 1] = al / w, wd / w
