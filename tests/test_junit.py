@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from junitparser import Failure, JUnitXml
 from lxml import etree
 
 import structbench as sb
@@ -223,6 +224,31 @@ def test_pytest_own_junit_report_passes_the_same_schema(tmp_path):
                     "test_two.py"], cwd=tmp_path, capture_output=True, timeout=120)
     document = validated((tmp_path / "pytest.xml").read_bytes())
     assert document.find("testsuite").get("failures") == "1"
+
+
+def test_a_junit_reader_reads_the_gates_as_it_reads_pytest_reports(tmp_path):
+    """junitparser (a JUnit reader of CI-side tools) reads pytest's own report
+    and structbench's alike: per case its name, class, pass or failure and the
+    failure's message; totals as the documents state them."""
+    (tmp_path / "test_two.py").write_text("def test_ok():\n    pass\n\n\ndef test_bad():\n    assert 1 == 2\n")
+    subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--junitxml", "pytest.xml",
+                    "test_two.py"], cwd=tmp_path, capture_output=True, timeout=120)
+    theirs = JUnitXml.fromfile(str(tmp_path / "pytest.xml"))
+    assert [(c.name, c.is_passed) for s in theirs for c in s] == [("test_ok", True), ("test_bad", False)]
+    rows = [{"campaign": "beam", "results": "modal", "gate": "mac_min", "value": 0.97, "threshold": 0.9, "ok": True},
+            {"campaign": "beam", "results": "modal", "gate": "freq_error_pct_max", "value": 2.5, "threshold": 1.0,
+             "ok": False},
+            {"campaign": "frame", "results": "least-squares", "gate": "rms_max", "value": 0.01, "threshold": 0.02,
+             "ok": True}]
+    (tmp_path / "gates.xml").write_bytes(junit_xml(rows, time=3.0))
+    ours = JUnitXml.fromfile(str(tmp_path / "gates.xml"))
+    assert (ours.tests, ours.failures, ours.errors) == (3, 1, 0)
+    read = [(s.name, c.classname, c.name, c.is_passed, [r.message for r in c.result if isinstance(r, Failure)])
+            for s in ours for c in s]
+    assert read == [("structbench check beam", "structbench.beam.modal", "mac_min", True, []),
+                    ("structbench check beam", "structbench.beam.modal", "freq_error_pct_max", False,
+                     ["modal freq_error_pct_max = 2.5 > 1 (threshold) in campaign beam"]),
+                    ("structbench check frame", "structbench.frame.least-squares", "rms_max", True, [])]
 
 
 def test_a_check_that_cannot_be_made_is_an_error_case(tmp_path, capsys):
