@@ -14,7 +14,12 @@ modal identifier takes one channel per location:
 * effective independence (Kammer 1991): from all candidates, repeatedly
   drop the one of least ``E_c = psi_c^T (Psi^T Psi)^-1 psi_c``, ``psi_c``
   (R,) the channel's modal amplitudes over its noise, ``|beta_cr| / sigma_c``
-  (one at a time near the budget, in batches of 5 % far above it);
+  (one at a time near the budget, in batches of 5 % far above it); ``E_c =
+  1 - det(A - psi_c psi_c^T) / det(A)``, ``A = Psi^T Psi``. Once no more
+  channels are left than modes (a budget below R), every ``E_c`` is 1 and
+  the drop continues on the volume ``det(Psi Psi^T)`` of the kept rows:
+  the channel of least distance ``d_c`` from the span of the others goes
+  (``det`` loses the factor ``d_c^2``);
 * D-optimal on the method's own information: greedy, the channel that most
   increases ``log det(sum I_c + eps I)``, then exchange passes (each chosen
   channel swapped for the best other while that improves), O(K C R^3) per pass
@@ -51,6 +56,7 @@ from .campaign_files import test_campaign
 RIDGE = 1e-9  # eps relative to the largest diagonal entry of the full candidate information
 EXCHANGE_PASSES = 3
 EFI_BATCH = 4  # effective independence drops one candidate at a time below this many times the budget
+RANK_TOL = 1e-6  # singular values of psi below this share of the largest: directions not spanned (rounding)
 CRITERIA = ("frequencies", "d-optimal", "effective-independence")
 PRECISE = 0.005  # modes planned for: predicted omega std below this share of omega with every candidate measured
 
@@ -131,20 +137,41 @@ def _logdet(J: np.ndarray) -> float:
     return float(value) if sign > 0 else -np.inf
 
 
+def _span_distances(P: np.ndarray) -> np.ndarray:
+    """Distance (C,) of each row of ``P`` (C, R), C <= R, from the span of
+    the other rows: ``|p_c - p_c O_c^+ O_c|``, ``O_c`` the others (C - 1, R),
+    its singular values below :data:`RANK_TOL` of the largest dropped: rows
+    dependent but for rounding (mirror-image channels of a symmetric
+    structure) are dependent, distance about 0, not a rounding-made span."""
+    C = P.shape[0]
+    others = np.broadcast_to(P, (C,) + P.shape)[~np.eye(C, dtype=bool)].reshape(C, C - 1, P.shape[1])
+    proj = np.einsum("cr,crj,cjs->cs", P, np.linalg.pinv(others, rcond=RANK_TOL), others)
+    return np.linalg.norm(P - proj, axis=1)
+
+
 def effective_independence(psi: np.ndarray, locations: np.ndarray, k: int) -> list[int]:
-    """Kammer's effective independence: indices of ``k`` candidates kept, at most
-    one per location (of a shared location the weaker channels go first).
-    While over :data:`EFI_BATCH` x ``k`` remain, the lowest 5 % go at once."""
+    """Kammer's effective independence: indices (ascending) of ``k`` of the C
+    candidates kept, at most one per location (of a shared location the weaker
+    channels go first). ``psi`` (C, R), ``locations`` (C,) ids. While over
+    :data:`EFI_BATCH` x ``k`` remain, the lowest 5 % go at once; at most R
+    left, the least span distance goes (module docstring). Scores within
+    :data:`~.targeted.TIE` of their scale (1 for ``E_c``, the largest row norm
+    for distances) count as equal and the lower index goes first, so that
+    rounding-level differences of ``psi`` leave the layout as is."""
     alive = np.ones(psi.shape[0], bool)
     while alive.sum() > k:
         idx = np.flatnonzero(alive)
-        A_inv = np.linalg.pinv(psi[idx].T @ psi[idx])
-        E = np.einsum("cr,rs,cs->c", psi[idx], A_inv, psi[idx])
+        if idx.size > psi.shape[1]:  # E_c in [0, 1]
+            A_inv = np.linalg.pinv(psi[idx].T @ psi[idx], rcond=RANK_TOL**2)
+            crit, scale = np.einsum("cr,rs,cs->c", psi[idx], A_inv, psi[idx]), 1.0
+        else:  # every E_c is 1 here; distances at most the largest row norm
+            crit, scale = _span_distances(psi[idx]), float(np.max(np.linalg.norm(psi[idx], axis=1)))
         loc, counts = np.unique(locations[idx], return_counts=True)
-        E = np.where(np.isin(locations[idx], loc[counts > 1]), E - 10.0, E)  # the identifier uses one per location
-        excess = idx.size - k
+        shared = np.isin(locations[idx], loc[counts > 1])  # the identifier uses one per location
+        rank = np.empty(idx.size, dtype=int)
+        rank[tg.tied_order(crit, tg.TIE * scale)] = np.arange(idx.size)
         drop = max(1, idx.size // 20) if idx.size > EFI_BATCH * k else 1
-        alive[idx[np.argsort(E, kind="stable")[:min(drop, excess)]]] = False
+        alive[idx[np.lexsort((rank, ~shared))[:min(drop, idx.size - k)]]] = False
     return np.flatnonzero(alive).tolist()
 
 
@@ -162,10 +189,11 @@ def d_optimal(info: np.ndarray, locations: np.ndarray, k: int, eps: float) -> li
             pqs = tg.mode_blocks(J)[None] + blocks[ok]
             with np.errstate(divide="ignore", invalid="ignore"):
                 approx = np.sum(np.log(pqs[..., 0] * pqs[..., 2] - pqs[..., 1] ** 2), axis=1)
-            ok = ok[np.argsort(-np.nan_to_num(approx, nan=-np.inf), kind="stable")[:tg.SHORTLIST]]
+            ok = ok[tg.tied_order(-np.nan_to_num(approx, nan=-np.inf), tg.TIE)[:tg.SHORTLIST]]
+            ok = np.sort(ok)
         sign, val = np.linalg.slogdet(J[None] + info[ok])
         val = np.where(sign > 0, val, -np.inf)
-        i = int(np.argmax(val))
+        i = int(tg.tied_order(-val, tg.TIE)[0])  # log det: TIE absolute, a relative TIE on det
         return int(ok[i]), float(val[i])
 
     return tg.greedy_exchange(info, eps * np.eye(info.shape[1]), locations, k, best,

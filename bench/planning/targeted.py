@@ -25,6 +25,12 @@ decoupled-mode value (each mode's 2 x 2 block of ``J + I_c`` alone,
 ``g_r^T B_rc^-1 g_r``, O(C R)) and the best :data:`SHORTLIST` evaluated
 exactly. A local optimum: no guarantee of the global one (exhaustive
 search is combinatorial). Fails (``ValueError``) for ``T`` < 1 or above R.
+
+Ties: the planning model's modes carry rounding differences between runs
+(a threaded eigensolver: 1e-10 relative in the amplitudes of a 1,000-DOF
+beam), so two candidates whose scores differ by less than :data:`TIE`
+(relative) count as equal and the lower candidate index wins
+(:func:`tied_order`): the same input gives the same layout.
 """
 from __future__ import annotations
 
@@ -34,6 +40,19 @@ import numpy as np
 
 SHORTLIST = 64  # candidates evaluated exactly per step; above: screened by the decoupled-mode value
 EXCHANGE_PASSES = 5
+TIE = 1e-6  # scores closer than this (relative; absolute on a log det) count as equal: lower index first
+
+
+def tied_order(values: np.ndarray, tol: float) -> np.ndarray:
+    """Ascending order of ``values`` (n,) in which values chained by gaps of
+    at most ``tol`` (absolute, >= 0) count as equal and keep their positions'
+    order: positions (n,) of ints. Non-finite values each form their own group."""
+    o = np.argsort(values, kind="stable")
+    with np.errstate(invalid="ignore"):
+        new = ~(np.diff(values[o]) <= tol)
+    group = np.empty(values.size, dtype=int)
+    group[o] = np.concatenate([[0], np.cumsum(new)])
+    return np.lexsort((np.arange(values.size), group))
 
 
 def target_matrix(zeta: np.ndarray, count: int) -> np.ndarray:
@@ -90,9 +109,12 @@ def best_addition(J: np.ndarray, info: np.ndarray, blocks: np.ndarray, allowed: 
     idx = np.flatnonzero(allowed)
     if idx.size > SHORTLIST:
         approx = _decoupled(J, blocks[idx], G)
-        idx = idx[np.argsort(approx, kind="stable")[:SHORTLIST]]
+        finite = approx[np.isfinite(approx)]
+        tol = TIE * (float(finite.min()) if finite.size else 1.0)
+        idx = np.sort(idx[tied_order(approx, tol)[:SHORTLIST]])
     val = _exact(J, info[idx], G)
-    i = int(np.argmin(val))
+    finite = val[np.isfinite(val)]
+    i = int(tied_order(val, TIE * (float(np.abs(finite).min()) if finite.size else 1.0))[0])
     return int(idx[i]), float(val[i])
 
 
