@@ -112,8 +112,8 @@ Fourth round (the spatial line test, identifier/modal/harmonics_spatial.py;
 docs/modal-method.md): tuned on ch3 seeds 9000-9007 and the ch3 records of
 9100-9125 and 9200-9217 that had missed a harmonic (9105, 9107, 9108, 9111,
 9114, 9200, 9208, 9214, 9215), beam 6000-6022 (14 records) and frame
-6000-6019 (12); a Monte Carlo of single-input white records (seeds 0-5,
-tests/test_modal_harmonics_spatial.py) for the null law. Fresh seeds on a
+6000-6019 (12); single-input white records (tests/test_modal_harmonics_spatial.py,
+seeds 0-3) for the null law. Fresh seeds on a
 clean copy of commit 10714ee, run once each, two processes at load 8-9:
 
     python benchmarks/modal_harmonics.py --structure ch3 --first 9300 --seeds 100 --uncertainty off --save ch3.jsonl
