@@ -13,6 +13,15 @@ from scipy.optimize import linear_sum_assignment
 DENSE_LIMIT = 600  # DOF up to which the dense solver is used
 
 
+def lanczos_start(n: int) -> np.ndarray:
+    """A fixed start vector (n,) for ARPACK (``eigsh(..., v0=...)``): normal
+    draws of a fixed seed, so that the same matrices give the same modes to
+    the last digit whatever ARPACK computed before in the process (its own
+    default start is a random vector from a generator it keeps across
+    calls); a draw, not a constant vector, so that no mode is orthogonal to it."""
+    return np.random.default_rng(20240607).standard_normal(n)
+
+
 @dataclass(frozen=True)
 class Modes:
     """Natural frequencies ``omega`` (rad/s, ascending, rigid-body modes 0.0),
@@ -45,7 +54,7 @@ def modes(mass: sp.spmatrix | np.ndarray, stiffness: sp.spmatrix | np.ndarray,
         k = sp.csc_matrix(stiffness)
         m = sp.csc_matrix(mass)
         shift = -1e-6 * abs(k.diagonal()).max() / abs(m.diagonal()).max()
-        lam, vec = sla.eigsh(k, k=count, M=m, sigma=shift, which="LM")
+        lam, vec = sla.eigsh(k, k=count, M=m, sigma=shift, which="LM", v0=lanczos_start(n))
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
     scale = max(abs(lam).max(), 1e-300)

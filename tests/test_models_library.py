@@ -1,8 +1,11 @@
 """The dissertation's structures against its tables and closed forms."""
 import numpy as np
 import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
 
 from structbench.models import load_model
+from structbench.models.analysis import DENSE_LIMIT, modes
 from structbench.models.library import ch5_simply_supported_beam, ch5_simply_supported_fe
 
 TABLE_3_4_ACTUAL = [0, 0, 0.064455, 0.206939, 0.408213, 0.719599, 1.096452, 1.524039, 1.999755, 2.575960]
@@ -90,3 +93,18 @@ def test_sparse_shift_invert_agrees_with_dense_on_a_large_free_beam():
     v = sparse.shapes[:, 2:]
     residual = np.linalg.norm(k @ v - m @ v * sparse.lam[2:], axis=0) / np.linalg.norm(k @ v, axis=0)
     assert residual.max() < 1e-6
+
+
+def test_sparse_modes_do_not_depend_on_what_arpack_computed_before():
+    """Above DENSE_LIMIT the Lanczos start is fixed: the same matrices give the
+    same modes to the last bit after another eigsh call has moved ARPACK's own
+    generator (its default start gave 1e-14 apart and flipped signs)."""
+    n = DENSE_LIMIT + 200
+    K = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csc") * 1e4
+    M = sp.identity(n, format="csc")
+    first = modes(M, K, count=10)
+    sla.eigsh(sp.diags(np.arange(1.0, 301.0)), k=3)
+    again = modes(M, K, count=10)
+    assert np.array_equal(first.lam, again.lam) and np.array_equal(first.shapes, again.shapes)
+    exact = 4e4 * np.sin(np.arange(1, 11) * np.pi / (2 * (n + 1))) ** 2  # the chain's closed form
+    np.testing.assert_allclose(first.lam, exact, rtol=1e-9)

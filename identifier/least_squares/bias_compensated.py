@@ -53,6 +53,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from structbench.models import Structure
+from structbench.models.analysis import lanczos_start
 
 from .estimate import Estimate
 from . import whitened
@@ -73,8 +74,9 @@ def _check_rank(G: sp.csr_matrix, labels: list[str], rcond: float) -> float:
         lam_max = lam[-1]
     else:
         Gs = Gs.tocsc()
-        lam_max = sla.eigsh(Gs, k=1, which="LA", return_eigenvectors=False)[0]
-        lam, vec = sla.eigsh(Gs, k=min(4, Gs.shape[0] - 1), sigma=-1e-6 * lam_max, which="LM")
+        start = lanczos_start(Gs.shape[0])
+        lam_max = sla.eigsh(Gs, k=1, which="LA", return_eigenvectors=False, v0=start)[0]
+        lam, vec = sla.eigsh(Gs, k=min(4, Gs.shape[0] - 1), sigma=-1e-6 * lam_max, which="LM", v0=start)
     bad = lam < rcond**2 * lam_max
     if bad.any():
         raise_deficient(not_identifiable(vec[:, bad].T, labels), Gs.shape[0] - int(bad.sum()), len(labels))

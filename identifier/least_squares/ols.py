@@ -25,6 +25,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from structbench.models import Structure
+from structbench.models.analysis import lanczos_start
 
 from ..errors import IdentificationError
 from .estimate import Estimate
@@ -97,8 +98,9 @@ def _solve_sparse(B: sp.csr_matrix, c: np.ndarray, labels: list[str], rcond: flo
     scale = np.sqrt(np.asarray(B.multiply(B).sum(axis=0)).ravel())
     Bs = (B @ sp.diags(1.0 / scale)).tocsr()
     N = (Bs.T @ Bs).tocsc()
-    lam_max = sla.eigsh(N, k=1, which="LA", return_eigenvectors=False)[0]
-    lam, vec = sla.eigsh(N, k=min(4, N.shape[0] - 1), sigma=-1e-6 * lam_max, which="LM")
+    start = lanczos_start(N.shape[0])
+    lam_max = sla.eigsh(N, k=1, which="LA", return_eigenvectors=False, v0=start)[0]
+    lam, vec = sla.eigsh(N, k=min(4, N.shape[0] - 1), sigma=-1e-6 * lam_max, which="LM", v0=start)
     bad = lam < rcond**2 * lam_max
     if bad.any():
         raise_deficient(not_identifiable(vec[:, bad].T, labels), N.shape[0] - int(bad.sum()), len(labels))

@@ -32,6 +32,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from structbench.models import Structure
+from structbench.models.analysis import lanczos_start
 
 DENSE_LIMIT = 400
 SUBSPACE_ITERATIONS = 12
@@ -110,7 +111,7 @@ class AffineModel:
             if found is not None:
                 return found
         block = min(count + max(GUARD, count // 2), self.n - 1)
-        lam, phi = sla.eigsh(K, k=block, M=M, sigma=shift, which="LM")
+        lam, phi = sla.eigsh(K, k=block, M=M, sigma=shift, which="LM", v0=lanczos_start(self.n))
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
         self._basis = phi
