@@ -90,11 +90,14 @@ def test_each_drive_is_scored_as_a_plan_of_the_test_driven_there(tmp_path: Path)
 
 
 def test_drives_with_a_layout_use_its_sensors(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A layout of criterion d-optimal: the points are ranked on its sensors
+    (the frequencies criterion chooses both together: tests/test_plan_joint.py)."""
     campaign = beam(tmp_path)
     (tmp_path / "cand.toml").write_text('[[candidates]]\nnodes = "all"\ndirs = ["w"]\nquantities = ["displacement"]\n')
     (tmp_path / "drives.toml").write_text('[[drives]]\nnodes = [2, 3, 4, 5]\ndirs = ["w"]\n')
     base = ["plan", str(campaign), "--method", "modal", "--candidates", str(tmp_path / "cand.toml"), "--sensors", "3",
-            "--drives", str(tmp_path / "drives.toml"), "--layout-out", str(tmp_path / "out.toml")]
+            "--drives", str(tmp_path / "drives.toml"), "--layout-out", str(tmp_path / "out.toml"),
+            "--criterion", "d-optimal"]
     assert main(base + ["--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["drives"]["sensors"] == doc["layout"]["sensors"] and doc["drives"]["candidates"] == 4

@@ -7,7 +7,8 @@ planning model), :mod:`.fisher` (least squares), :mod:`.free_decay` (modal
 frequencies and damping), :mod:`.updating` (element parameters from a free
 decay's modes), :mod:`.layouts` (effective independence, D-optimal and,
 :mod:`.targeted`, frequency-targeted sensor layouts), :mod:`.drives`
-(excitation points of a free decay's impulse), :mod:`.campaign_files`
+(excitation points of a free decay's impulse), :mod:`.joint` (the point and
+the layout chosen together), :mod:`.campaign_files`
 (the campaign files a plan writes), :mod:`.verify` (``--verify``); the command line prints the
 table (``structbench.cli.plan``).
 
@@ -76,9 +77,12 @@ def _updating(model: Model, specs) -> dict[str, Any]:
 
 
 def _drives(model: Model, specs, method: str, drives: str | Path, layout: dict[str, Any] | None, path: Path,
-            test: str, out: str | Path | None, target_modes: int | None, document: dict[str, Any]) -> Path:
-    """Rank the excitation points (``document["drives"]``) on the layout's
-    sensors or the test's, and write the campaign with the best one; its path."""
+            test: str, out: str | Path | None, target_modes: int | None, document: dict[str, Any],
+            candidates: str | Path | None = None) -> Path:
+    """Rank the excitation points (``document["drives"]``) on the test's
+    sensors, or with a layout of the ``frequencies`` criterion choose the
+    point and the layout together (:mod:`.joint`; other criteria: on the
+    chosen layout's sensors), and write the campaign with the best pair; its path."""
     from .campaign_files import test_campaign
     from .drives import rank_drives, read_drives
     from .free_decay import modal_channels
@@ -90,8 +94,15 @@ def _drives(model: Model, specs, method: str, drives: str | Path, layout: dict[s
                [(c.dof[0], c.dof[1], c.quantity) for c in modal_channels(specs[0])])
     if not sensors:
         raise UserError(f"test {test!r} has no motion sensor", field="sensors")
-    section = rank_drives(model, specs[0], sensors, read_drives(drives, model), target_modes,
-                          targets=layout["target_modes"] if layout else None)
+    points = read_drives(drives, model)
+    if layout and layout["criterion"] == "frequencies":
+        from .joint import joint_section
+        section = joint_section(model, specs[0], str(candidates), int(layout["budget"]), points, sensors,
+                                target_modes)
+        sensors = [tuple(s) for s in section["sensors"]]
+    else:
+        section = rank_drives(model, specs[0], sensors, points, target_modes,
+                              targets=layout["target_modes"] if layout else None)
     target = Path(out) if out is not None else Path.cwd() / f"{path.stem}-plan-{test}.toml"
     target.write_text(test_campaign(path, test, sensors=sensors if layout else None, only=False,
                                     drive=tuple(section["chosen"])), encoding="utf-8")
@@ -119,9 +130,11 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
     ``<campaign>-plan-<test>.toml`` in the working folder) and planned on. With
     ``drives`` (candidate excitation points, modal, a test of one impulse) also
     ``drives``: the points ranked by the predicted frequency errors on the
-    plan's sensors (the chosen layout's, else the test's), the best written
-    into that campaign file as the impulse's node and direction and planned
-    on. ``verify`` > 0: that many Monte
+    plan's sensors (the test's; with a layout of criterion ``frequencies``
+    each point with its own layout, the point and the layout chosen together,
+    :mod:`.joint`; other criteria: the chosen layout's), the best written
+    into that campaign file as the impulse's node and direction (and its
+    layout) and planned on. ``verify`` > 0: that many Monte
     Carlo repetitions (seed ``seed``) through the FMU and the method, ``verify``
     holding predicted against achieved standard deviations."""
     from structbench.harness.campaign import load_campaign
@@ -151,7 +164,7 @@ def plan(campaign: str | Path, method: str, *, model: str | Path | None = None, 
         say(f"layout: {document['layout']['chosen']} layout written to {run_file}")
     if drives is not None:
         run_file = _drives(planning, specs, method, drives, document.get("layout"), path, name, layout_out,
-                           target_modes, document)
+                           target_modes, document, candidates)
         loaded = load_campaign(run_file)
         name, specs = _chosen_tests(loaded, name)
         say(f"excitation point: node {document['drives']['chosen'][0]} {document['drives']['chosen'][1]}, "

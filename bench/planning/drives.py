@@ -95,23 +95,82 @@ def _bound(d: fd.Decay, rows: np.ndarray, orders: np.ndarray, ratio: np.ndarray,
     """(visible (R,) bool, predicted relative omega std (R,), inf where not visible)
     of the free decay ``d`` through channels ``rows``, ``orders`` with noise ratios ``ratio``."""
     beta = fd.amplitudes(d, rows, orders)
-    if b"all" not in cache:
-        cache[b"all"] = fd.bases(d)
-    sigma = fd.channel_sigma(beta, ratio, cache[b"all"][0])
+    sigma = fd.channel_sigma(beta, ratio, fd.cached_bases(d, cache)[0])
     seen = fd.visible(d, beta, sigma)
     rel = np.full(d.omega.size, np.inf)
     if seen.any():
         sub = fd.Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
-        key = seen.tobytes()
-        if key not in cache:
-            cache[key] = fd.bases(sub)
-        _, Q = cache[key]
+        _, Q = fd.cached_bases(sub, cache)
         J = fd.channel_information(beta[:, seen], sigma, Q).sum(axis=0)
         try:
             rel[seen] = np.sqrt(fd.omega_zeta_covariance(sub, J)[:, 0, 0]) / sub.omega
         except np.linalg.LinAlgError:
             pass
     return seen, rel
+
+
+def driven(base: fd.Decay, model: Model, point: tuple[int, str], impulse: float) -> fd.Decay:
+    """``base``'s modes decaying after an impulse ``impulse`` at ``point``
+    (node, dir) alone: ``A = 0``, ``B_r = I phi_jr / wd_r``."""
+    qd0 = impulse * base.shapes[model.dof_index(*point)]
+    return fd.Decay(base.omega, base.zeta, np.zeros_like(qd0), qd0 / base.wd, base.shapes, base.dt, base.m)
+
+
+def sensor_channels(model: Model, test: TestSpec,
+                    sensors: list[tuple[int, str, str]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shape rows, derivative orders and noise ratios (C,) of the channels
+    ``sensors`` (node, dir, quantity); fails if none has noise."""
+    rows = np.array([model.dof_index(n, d) for n, d, _ in sensors])
+    orders = np.array([fd.ORDER[q] for _, _, q in sensors])
+    ratio = np.array([test.noise.ratio(q) for _, _, q in sensors])
+    if not ratio.any():
+        raise UserError("the test has no sensor noise on its motion channels: the bounds are zero", field="noise")
+    return rows, orders, ratio
+
+
+def point_bounds(model: Model, base: fd.Decay, impulse: float, drives: list[tuple[int, str]],
+                 channels: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 cache: dict[bytes, tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """Per candidate point (D,) the visible modes (D, R) bool and predicted
+    relative omega standard errors (D, R) (inf where not visible) through
+    ``channels`` (:func:`sensor_channels`); ``cache`` keeps the bases per
+    set of visible modes."""
+    out = [_bound(driven(base, model, p, impulse), *channels, cache) for p in drives]
+    return np.array([o[0] for o in out]).reshape(len(drives), -1), np.array([o[1] for o in out]).reshape(
+        len(drives), -1)
+
+
+def target_index(base: fd.Decay, rel: np.ndarray, target_modes: int | None,
+                 targets: list[float] | None) -> np.ndarray:
+    """Indices into ``base``'s modes of the target modes: those at ``targets``
+    (rad/s) if given, else the lowest ``target_modes`` (default all) of the
+    modes some row of ``rel`` (D, R) determines to :data:`PRECISE`."""
+    if targets is not None:
+        return np.flatnonzero(np.isclose(base.omega[:, None], np.asarray(targets)[None, :], rtol=1e-9).any(axis=1))
+    good = np.flatnonzero(np.any(rel < PRECISE, axis=0))
+    if not good.size:
+        raise UserError(f"no mode of the test is determined to {PRECISE:.1%} from any candidate excitation point",
+                        field="--drives")
+    count = good.size if target_modes is None else int(target_modes)
+    if not 1 <= count <= good.size:
+        raise UserError(f"must be between 1 and the {good.size} modes the candidate excitation points "
+                        "determine", field="--target-modes")
+    return good[:count]
+
+
+def score_row(point: tuple[int, str], seen: np.ndarray, rel: np.ndarray, index: np.ndarray,
+              omega: np.ndarray) -> dict[str, Any]:
+    """A ranking row: the target modes (``index`` into ``omega``) not visible
+    from ``point`` (rad/s) and the RMS and median of ``rel`` over those seen."""
+    hit = index[seen[index]]
+    return {"node": int(point[0]), "dir": point[1], "missed": [float(w) for w in omega[index[~seen[index]]]],
+            "rms_rel_omega_std": float(np.sqrt(np.mean(rel[hit] ** 2))) if hit.size else None,
+            "median_rel_omega_std": float(np.median(rel[hit])) if hit.size else None}
+
+
+def rank_key(row: dict[str, Any]) -> tuple[int, float]:
+    """Order of ranking rows: fewest target modes missed, then least RMS."""
+    return len(row["missed"]), np.inf if row["rms_rel_omega_std"] is None else row["rms_rel_omega_std"]
 
 
 def rank_drives(model: Model, test: TestSpec, sensors: list[tuple[int, str, str]], drives: list[tuple[int, str]],
@@ -122,40 +181,9 @@ def rank_drives(model: Model, test: TestSpec, sensors: list[tuple[int, str, str]
     target modes) replace the target modes' choice."""
     impulse = the_impulse(test)
     base = fd.decay(model, test)
-    rows = np.array([model.dof_index(n, d) for n, d, _ in sensors])
-    orders = np.array([fd.ORDER[q] for _, _, q in sensors])
-    ratio = np.array([test.noise.ratio(q) for _, _, q in sensors])
-    if not ratio.any():
-        raise UserError("the test has no sensor noise on its motion channels: the bounds are zero", field="noise")
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-    seen, rel = [], []
-    for n, di in drives:
-        qd0 = impulse.impulse * base.shapes[model.dof_index(n, di)]
-        d = fd.Decay(base.omega, base.zeta, np.zeros_like(qd0), qd0 / base.wd, base.shapes, base.dt, base.m)
-        s, r = _bound(d, rows, orders, ratio, cache)
-        seen.append(s)
-        rel.append(r)
-    if targets is not None:
-        index = np.flatnonzero(np.isclose(base.omega[:, None], np.asarray(targets)[None, :], rtol=1e-9).any(axis=1))
-    else:
-        good = np.flatnonzero(np.any(np.asarray(rel) < PRECISE, axis=0))
-        if not good.size:
-            raise UserError(f"no mode of the test is determined to {PRECISE:.1%} from any candidate excitation point",
-                            field="--drives")
-        count = good.size if target_modes is None else int(target_modes)
-        if not 1 <= count <= good.size:
-            raise UserError(f"must be between 1 and the {good.size} modes the candidate excitation points "
-                            "determine", field="--target-modes")
-        index = good[:count]
-    ranking = []
-    for (n, di), s, r in zip(drives, seen, rel):
-        hit = index[s[index]]
-        ranking.append({"node": int(n), "dir": di,
-                        "missed": [float(w) for w in base.omega[index[~s[index]]]],
-                        "rms_rel_omega_std": float(np.sqrt(np.mean(r[hit] ** 2))) if hit.size else None,
-                        "median_rel_omega_std": float(np.median(r[hit])) if hit.size else None})
-    ranking.sort(key=lambda row: (len(row["missed"]), np.inf if row["rms_rel_omega_std"] is None
-                                  else row["rms_rel_omega_std"]))
+    seen, rel = point_bounds(model, base, impulse.impulse, drives, sensor_channels(model, test, sensors), {})
+    index = target_index(base, rel, target_modes, targets)
+    ranking = sorted((score_row(p, s, r, index, base.omega) for p, s, r in zip(drives, seen, rel)), key=rank_key)
     return {"candidates": len(drives), "impulse": float(impulse.impulse),
             "target_modes": [float(w) for w in base.omega[index]],
             "chosen": [ranking[0]["node"], ranking[0]["dir"]],

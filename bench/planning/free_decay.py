@@ -157,6 +157,17 @@ def bases(d: Decay) -> tuple[np.ndarray, np.ndarray]:
     return PP / d.m, 0.5 * (Q + Q.T)
 
 
+def cached_bases(d: Decay, cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`bases` of ``d``, kept in ``cache`` (if given) under its modes'
+    ``omega``, ``zeta``, ``dt`` and ``m`` (all the bases depend on)."""
+    if cache is None:
+        return bases(d)
+    key = d.omega.tobytes() + d.zeta.tobytes() + np.array([d.dt, d.m], dtype=float).tobytes()
+    if key not in cache:
+        cache[key] = bases(d)
+    return cache[key]
+
+
 def channel_sigma(beta: np.ndarray, ratio: np.ndarray, gram: np.ndarray) -> np.ndarray:
     """Noise ``sigma_c`` (C,) = ``ratio`` (C,) x RMS of the clean channel, from
     its amplitudes ``beta`` (C, R, 2) and ``gram`` = ``Phi^T Phi / m``."""

@@ -100,30 +100,34 @@ def read_candidates(path: str | Path, model: Model) -> list[tuple[int, str, str]
     return list(dict.fromkeys(out))
 
 
-def candidate_information(model: Model, test, cands: list[tuple[int, str, str]]) -> tuple[np.ndarray, np.ndarray,
-                                                                                         fd.Decay]:
+def candidate_information(model: Model, test, cands: list[tuple[int, str, str]], free: fd.Decay | None = None,
+                          cache: dict[bytes, tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[
+                              np.ndarray, np.ndarray, fd.Decay]:
     """Per candidate the relative information (C, 2R, 2R) and ``psi`` (C, R),
-    on the modes visible with every candidate measured."""
-    d = fd.decay(model, test)
+    on the modes visible with every candidate measured and determined by
+    them to :data:`PRECISE`, and those modes. ``free``: the free decay to
+    plan on (default ``test``'s on ``model``; :mod:`.joint` moves the
+    impulse); ``cache``: bases kept between calls (:func:`.free_decay.cached_bases`)."""
+    d = fd.decay(model, test) if free is None else free
     rows = np.array([model.dof_index(n, di) for n, di, _ in cands])
     orders = np.array([fd.ORDER[q] for _, _, q in cands])
     ratio = np.array([test.noise.ratio(q) for _, _, q in cands])
     if not ratio.any():
         raise UserError("the test has no sensor noise on the candidate quantities", field="noise")
     beta = fd.amplitudes(d, rows, orders)
-    gram, _ = fd.bases(d)
+    gram, _ = fd.cached_bases(d, cache)
     sigma = fd.channel_sigma(beta, ratio, gram)
     seen = fd.visible(d, beta, sigma)
     d = fd.Decay(d.omega[seen], d.zeta[seen], d.A[seen], d.B[seen], d.shapes[:, seen], d.dt, d.m)
     beta = beta[:, seen]
-    _, Q = fd.bases(d)
+    _, Q = fd.cached_bases(d, cache)
     info = fd.channel_information(beta, sigma, Q)
     rel = np.sqrt(fd.omega_zeta_covariance(d, info.sum(axis=0))[:, 0, 0]) / d.omega
     keep = rel < PRECISE
     if not keep.all():  # plan for the modes the full candidate set determines well
         d = fd.Decay(d.omega[keep], d.zeta[keep], d.A[keep], d.B[keep], d.shapes[:, keep], d.dt, d.m)
         beta = beta[:, keep]
-        _, Q = fd.bases(d)
+        _, Q = fd.cached_bases(d, cache)
         info = fd.channel_information(beta, sigma, Q)
     scale = np.repeat(d.omega, 2)  # (alpha, wd) / omega: relative units
     info *= scale[None, :, None] * scale[None, None, :]

@@ -5,7 +5,8 @@ relative variances of the natural frequencies a user asks for
 On the relative information of :mod:`.layouts` (each candidate ``c`` a block
 ``I_c`` (2R, 2R) on ``(alpha_r / omega_r, wd_r / omega_r)``) the objective of a
 layout ``S`` is the sum over the target modes ``r`` (the lowest ``T`` planned)
-of ``var(omega_r) / omega_r^2`` of the Cramer-Rao bound,
+(or any set of ``T`` planned modes) of ``var(omega_r) / omega_r^2`` of the
+Cramer-Rao bound,
 
     f(S) = tr(G^T (eps I + sum_{c in S} I_c)^-1 G),   G (2R, T),
 
@@ -55,14 +56,21 @@ def tied_order(values: np.ndarray, tol: float) -> np.ndarray:
     return np.lexsort((np.arange(values.size), group))
 
 
-def target_matrix(zeta: np.ndarray, count: int) -> np.ndarray:
-    """``G`` (2R, count) of the module docstring for damping ratios ``zeta`` (R,)."""
+def target_matrix(zeta: np.ndarray, count: int, modes: np.ndarray | None = None) -> np.ndarray:
+    """``G`` (2R, T) of the module docstring for damping ratios ``zeta`` (R,):
+    the target modes are the lowest ``count`` (T = count), or the mode indices
+    ``modes`` (T,) when given (distinct, in 0..R-1; ``count`` then unused)."""
     R = zeta.size
-    if not 1 <= count <= R:
-        raise ValueError(f"target modes must be between 1 and {R}, got {count}")
-    G = np.zeros((2 * R, count))
-    r = np.arange(count)
-    G[2 * r, r], G[2 * r + 1, r] = zeta[:count], np.sqrt(1.0 - zeta[:count] ** 2)
+    if modes is None:
+        if not 1 <= count <= R:
+            raise ValueError(f"target modes must be between 1 and {R}, got {count}")
+        modes = np.arange(count)
+    modes = np.asarray(modes, dtype=int)
+    if not modes.size or np.unique(modes).size != modes.size or modes.min() < 0 or modes.max() >= R:
+        raise ValueError(f"target modes must be distinct indices in 0..{R - 1}, got {modes.tolist()}")
+    G = np.zeros((2 * R, modes.size))
+    t = np.arange(modes.size)
+    G[2 * modes, t], G[2 * modes + 1, t] = zeta[modes], np.sqrt(1.0 - zeta[modes] ** 2)
     return G
 
 
@@ -92,11 +100,11 @@ def mode_blocks(M: np.ndarray) -> np.ndarray:
 def _decoupled(J: np.ndarray, blocks: np.ndarray, G: np.ndarray) -> np.ndarray:
     """Approximate ``f(J + I_c)`` (m,) from the candidates' mode blocks
     ``blocks`` (m, R, 3): each target mode's 2 x 2 block alone."""
-    T = G.shape[1]
-    r = np.arange(T)
-    pqs = mode_blocks(J)[None, :T] + blocks[:, :T]
+    r = np.argmax(G[1::2] != 0, axis=0)  # column t's mode (its wd row is sqrt(1 - zeta^2) > 0)
+    t = np.arange(G.shape[1])
+    pqs = mode_blocks(J)[None, r] + blocks[:, r]
     p, q, s = pqs[..., 0], pqs[..., 1], pqs[..., 2]
-    g0, g1 = G[2 * r, r], G[2 * r + 1, r]
+    g0, g1 = G[2 * r, t], G[2 * r + 1, t]
     with np.errstate(divide="ignore", invalid="ignore"):
         val = (s * g0**2 - 2 * q * g0 * g1 + p * g1**2) / (p * s - q**2)
     return np.where(np.isfinite(val) & (val > 0), val, np.inf).sum(axis=1)
@@ -151,12 +159,13 @@ def greedy_exchange(info: np.ndarray, ridge: np.ndarray, locations: np.ndarray, 
 
 
 def targeted(info: np.ndarray, zeta: np.ndarray, locations: np.ndarray, k: int, eps: float,
-             count: int) -> list[int]:
+             count: int, modes: np.ndarray | None = None) -> list[int]:
     """Indices of ``k`` candidates (at most one per location) minimising the
-    summed relative frequency variances of the lowest ``count`` modes:
-    greedy, then exchange passes (module docstring). ``info`` (C, 2R, 2R)
-    relative, ``zeta`` (R,), ``locations`` (C,) ids, ``eps`` the ridge."""
-    G = target_matrix(zeta, count)
+    summed relative frequency variances of the lowest ``count`` modes (or of
+    the mode indices ``modes``): greedy, then exchange passes (module
+    docstring). ``info`` (C, 2R, 2R) relative, ``zeta`` (R,), ``locations``
+    (C,) ids, ``eps`` the ridge."""
+    G = target_matrix(zeta, count, modes)
     blocks = mode_blocks(info)
     return greedy_exchange(info, eps * np.eye(info.shape[1]), locations, k,
                            lambda J, allowed: best_addition(J, info, blocks, allowed, G),
