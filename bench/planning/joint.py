@@ -17,26 +17,36 @@ every candidate channel measured (the point ranking's rule with all
 candidates as sensors). They are the same for every pair, so pairs at
 different points compare on the same frequencies.
 
-Search (the pair space has ``D x binom(C, K)`` members):
+Search (the pair space has ``D x binom(C, K)`` members). A point's own
+layout ``S_j`` is the targeted layout (:mod:`.targeted`: greedy and
+exchanges on ``tr(G^T J^-1 G)`` over the target modes the point's full
+candidate set determines, on :func:`.layouts.candidate_information` of the
+decay driven at ``j``).
 
-1. per point ``j``: the targeted layout ``S_j`` (:mod:`.targeted`: greedy
-   and exchanges on ``tr(G^T J^-1 G)`` over the target modes the point's
-   full candidate set determines, on :func:`.layouts.candidate_information`
-   of the decay driven at ``j``), scored at ``j``;
-2. alternation, from the best pair of step 1 and from the sequential pair
-   (``start``: the layout chosen at the test's own point, at the best point
-   for it): the best point for the layout, then the layout of that point,
-   while the key drops (every step strictly lowers it: it ends).
+1. alternation from the sequential pair (``start``: the layout chosen at
+   the test's own point, scored at every point, at the best one for it):
+   the best point for the layout, then that point's own layout, while the
+   key drops (every move strictly lowers it: it ends);
+2. the points in order of their floor, the key with every candidate
+   channel measured: while a point's floor beats the best pair so far (and
+   for at most :data:`SCREEN` points), its own layout is scored there. The
+   floor bounds every layout's key at that point from below (more channels,
+   more information) but for the modes a layout leaves unseen, which it no
+   longer carries as nuisance terms;
+3. alternation from the best pair.
 
 Every pair evaluated is kept; per point the best layout found there
 (``ranking``, best first, each row with its ``sensors``). The pair chosen
 is at least as good by the bound as the sequential one (it is among those
-evaluated). Ties: RMS values within :data:`~.targeted.TIE` (relative) are
-equal, the earlier point in the file first, and a move needs a drop beyond
-it (mirror-image points of a symmetric structure differ by rounding) and is a local optimum in the alternation; no guarantee of the
+evaluated) and a local optimum of the alternation; no guarantee of the
 global one (``tests/test_plan_joint.py`` checks it against exhaustive
-search on a small beam). Cost: D targeted layouts (each O(K C R^3) per
-pass) and, per alternation step, one layout scored at every point (O(D K R^3)).
+search on a small beam). Ties: RMS values within :data:`~.targeted.TIE`
+(relative) are equal, the earlier point in the file first, and a move
+needs a drop beyond it (mirror-image points of a symmetric structure
+differ by rounding). Cost: the floors (O(D C R^3)), up to
+:data:`SCREEN` targeted layouts plus one per alternation move (each O(K C
+R^3) per pass), and per alternation step one layout scored at every point
+(O(D K R^3)).
 
 Fails (:class:`UserError`) as :func:`.drives.rank_drives` and
 :func:`.layouts.plan_layout` do (not one impulse, no noise, target modes
@@ -44,6 +54,7 @@ outside 1..(modes some point determines)).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -58,6 +69,7 @@ from .layouts import RIDGE, candidate_information, read_candidates
 
 Layout = tuple[tuple[int, str, str], ...]
 MAX_STEPS = 50  # alternation steps per start (each strictly lowers the key; a guard, not a tuning constant)
+SCREEN = 16  # step 1 plans a layout for at most this many points, least floor first
 
 
 def _layout_at(model: Model, test: TestSpec, base: fd.Decay, impulse: float, point: tuple[int, str],
@@ -126,7 +138,7 @@ class _Pairs:
 
 
 def _alternate(pairs: _Pairs, point: tuple[int, str], layout: Layout,
-               per_point: dict[tuple[int, str], Layout | None]) -> int:
+               own_layout: Callable[[tuple[int, str]], Layout | None]) -> int:
     """Best point for the layout, then the point's own layout, while the
     key drops; the number of moves made."""
     moves = 0
@@ -136,7 +148,7 @@ def _alternate(pairs: _Pairs, point: tuple[int, str], layout: Layout,
         row = pairs.best_point(layout)
         if better(row, now):
             point, now, moved = (row["node"], row["dir"]), row, True
-        own = per_point.get(point)
+        own = own_layout(point)
         if own is not None and own != layout:
             row = pairs.score([point], own)[0]
             if better(row, now):
@@ -159,26 +171,38 @@ def joint_plan(model: Model, test: TestSpec, cands: list[tuple[int, str, str]], 
     impulse = dv.the_impulse(test).impulse
     base = fd.decay(model, test)
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-    _, rel_all = dv.point_bounds(model, base, impulse, drives, dv.sensor_channels(model, test, cands), cache)
+    seen_all, rel_all = dv.point_bounds(model, base, impulse, drives, dv.sensor_channels(model, test, cands), cache)
     index = dv.target_index(base, rel_all, target_modes, None)
     targets = base.omega[index]
     pairs = _Pairs(model, test, base, impulse, drives, index, cache)
-    per_point: dict[tuple[int, str], Layout | None] = {}
-    for p, rel in zip(drives, rel_all):
-        per_point[p] = (_layout_at(model, test, base, impulse, p, cands, locations, k, targets, pairs.cache)
-                        if np.any(rel[index] < np.inf) else None)
-        if per_point[p] is not None:
-            pairs.score([p], per_point[p])
+    layouts: dict[tuple[int, str], Layout | None] = {}
+
+    def own_layout(p: tuple[int, str]) -> Layout | None:
+        if p not in layouts:
+            seen = np.any(rel_all[drives.index(p)][index] < np.inf)
+            layouts[p] = _layout_at(model, test, base, impulse, p, cands, locations, k, targets,
+                                    cache) if seen else None
+        return layouts[p]
+
     first = tuple(sorted(tuple(s) for s in start))
-    sequential = pairs.best_point(first)
-    moves = _alternate(pairs, (sequential["node"], sequential["dir"]), first, per_point)
-    top = ordered([pairs.best[p] for p in drives if p in pairs.best])[0]
-    moves += _alternate(pairs, (top["node"], top["dir"]), tuple(tuple(s) for s in top["sensors"]), per_point)
-    ranking = ordered([pairs.best[p] for p in drives if p in pairs.best])
+    sequential = pairs.best_point(first)  # scores the start layout at every point
+    moves = _alternate(pairs, (sequential["node"], sequential["dir"]), first, own_layout)
+    floor = ordered([dv.score_row(p, s, r, index, base.omega) for p, s, r in zip(drives, seen_all, rel_all)])
+    for row in floor[:SCREEN]:  # every channel measured: no layout there does better (nearly: see the docstring)
+        top = ordered(list(pairs.best.values()))[0]
+        if not better(row, top):
+            break
+        p = (row["node"], row["dir"])
+        if own_layout(p) is not None:
+            pairs.score([p], own_layout(p))
+    top = ordered([pairs.best[p] for p in drives])[0]
+    moves += _alternate(pairs, (top["node"], top["dir"]), tuple(tuple(s) for s in top["sensors"]), own_layout)
+    ranking = ordered([pairs.best[p] for p in drives])
     return {"candidates": len(drives), "impulse": float(impulse), "joint": True,
             "target_modes": [float(w) for w in targets], "chosen": [ranking[0]["node"], ranking[0]["dir"]],
-            "sensors": ranking[0]["sensors"], "ranking": ranking,
-            "sequential": sequential, "pairs_scored": len(pairs.rows), "alternation_moves": moves}
+            "sensors": ranking[0]["sensors"], "ranking": ranking, "sequential": sequential,
+            "layouts_planned": sum(v is not None for v in layouts.values()), "pairs_scored": len(pairs.rows),
+            "alternation_moves": moves}
 
 
 def joint_section(model: Model, test: TestSpec, candidates: str, k: int, drives: list[tuple[int, str]],
