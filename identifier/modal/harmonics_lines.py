@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
-from .harmonics_spatial import spatial_bar, whitened
+from .harmonics_spatial import side_medians, sided, spatial_bar, whitened
 from .support import MIN_DECAYS
 
 LINE = 20.0  # least periodogram line over the median of its neighbours ...
@@ -215,7 +215,12 @@ def spatial_excess(X: np.ndarray) -> np.ndarray:
     """``T_j`` over its running median (:func:`background` over the lines it is defined at), over
     :func:`identifier.modal.harmonics_spatial.spatial_bar` for every line of ``X`` (m, lines):
     1 or more passes the spatial test; 0 where it is undefined (within ``2 WINDOW`` lines of either
-    end, one channel)."""
+    end, one channel); where it is smaller (over the lines where both are defined), ``T^L_j`` or
+    ``T^R_j`` (:func:`identifier.modal.harmonics_spatial.sided`: whitened by one side alone) over
+    the median of its own side's values on the lines 3 to ``WINDOW`` below (or above) ``j``, over
+    the same bar: a line must stand over its background however that is taken (a step of the
+    background, an excitation's band edge, inflates the two-sided ratio; a bump tens of lines wide,
+    the one-sided ones)."""
     out = np.zeros(X.shape[1])
     bar = spatial_bar(X.shape[0], X.shape[1], WINDOW)
     if not np.isfinite(bar):
@@ -227,4 +232,8 @@ def spatial_excess(X: np.ndarray) -> np.ndarray:
     seg = T[ok[0]:ok[-1] + 1]
     out[ok[0]:ok[-1] + 1] = seg / np.maximum(background(seg), 1e-300) / bar
     out[:ok[0] + WINDOW] = out[ok[-1] + 1 - WINDOW:] = 0.0  # the running median there is one-sided
-    return out
+    left, right = sided(X, WINDOW)
+    below, above = side_medians(left, WINDOW)[0], side_medians(right, WINDOW)[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = np.minimum(left / below, right / above) / bar  # NaN where either side is undefined
+    return np.where(np.isfinite(e), np.minimum(out, e), out)

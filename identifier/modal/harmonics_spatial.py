@@ -31,6 +31,22 @@ unwindowed, independent ``Y``: neighbours correlate by -2/3 and lines two
 apart by 1/6, so that a mean of ``N`` outer products holds ``N / (1 + 2
 (4/9 + 1/36)) = N / 1.94`` independent ones (``HANN``).
 
+A step of the background (an excitation's band edge: the random forces
+stop, the response falls to the sensors' noise) breaks the constant
+``S_j``: next to it the two halves of the window differ, and a line of the
+loud side whitened by their mean stands out. :func:`sided` whitens each
+line by either side alone, ``T^L_j`` by the mean over the lines ``GAP + 1``
+to ``GAP + N`` below ``j`` and ``T^R_j`` above (the same ``N`` lines, so
+the same law), each taken over the running median of its own side's
+values (the lines 3 to ``WINDOW`` below, or above; :func:`side_medians`).
+At a step the side the line belongs to whitens it as its own; but the
+one-sided means reach ``GAP + N`` lines away and miss a bump of the
+background tens of lines wide that the two-sided one holds. The test
+takes the smallest of the three ratios
+(:func:`identifier.modal.harmonics_lines.spatial_excess`): each follows
+the law above where its own background is constant, so the smallest
+exceeds the bar no more often than any one of them.
+
 Shapes: ``X`` (m, lines) complex; frequencies in spectral lines. Fails
 (gives no bar, NaN) with fewer than ``2 m`` lines in the window (too many
 channels: the cross-spectrum estimate is singular) or a single channel;
@@ -85,3 +101,45 @@ def whitened(X: np.ndarray, window: int, chunk: int = 4096) -> np.ndarray:
         x = X[:, start:stop].T[:, :, None]
         T[start:stop] = np.real(np.sum(np.conj(x) * np.linalg.solve(S, x), axis=(1, 2)))
     return T
+
+
+def sided(X: np.ndarray, window: int, chunk: int = 4096) -> tuple[np.ndarray, np.ndarray]:
+    """``T^L_j, T^R_j`` (lines,) each: ``X_j^H S^-1 X_j`` of the transforms ``X`` (m, lines) with
+    ``S`` the mean of ``X_k X_k^H`` over the ``N = 2 (window - GAP)`` lines ``j - GAP - N .. j - GAP
+    - 1`` (left) or ``j + GAP + 1 .. j + GAP + N`` (right) (module docstring); NaN within ``GAP +
+    N`` lines of either end. Ridge as :func:`whitened`."""
+    m, L = X.shape
+    n = 2 * (window - GAP)
+    reach = GAP + n
+    left, right = np.full(L, np.nan), np.full(L, np.nan)
+    if L <= 2 * reach + 1:
+        return left, right
+    eye = np.eye(m)
+    for start in range(reach, L - reach, chunk):
+        stop = min(start + chunk, L - reach)
+        lo, hi = start - reach, stop + reach
+        Xc = X[:, lo:hi]
+        cum = np.concatenate([np.zeros((1, m, m), complex), np.cumsum(np.einsum("mj,nj->jmn", Xc, Xc.conj()), axis=0)])
+        j = np.arange(start, stop) - lo
+        x = X[:, start:stop].T[:, :, None]
+        for out, S in ((left, cum[j - GAP] - cum[j - reach]), (right, cum[j + reach + 1] - cum[j + GAP + 1])):
+            S = S / n
+            S += 1e-12 * np.einsum("jii->j", S).real[:, None, None] / m * eye
+            out[start:stop] = np.real(np.sum(np.conj(x) * np.linalg.solve(S, x), axis=(1, 2)))
+    return left, right
+
+
+def side_medians(T: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """The median of ``T`` (lines,) over the lines 3 to ``window`` below each line, and above it
+    (NaN where that side runs off ``T`` or holds a NaN)."""
+    size = window - 2
+    below, above = np.full(T.size, np.nan), np.full(T.size, np.nan)
+    if T.size < size:
+        return below, above
+    med = np.median(np.lib.stride_tricks.sliding_window_view(T, size), axis=1)  # med[i]: T[i:i + size]
+    j = np.arange(T.size)
+    ok = j - window >= 0
+    below[ok] = med[j[ok] - window]
+    ok = j + 3 + size <= T.size
+    above[ok] = med[j[ok] + 3]
+    return below, above
