@@ -59,7 +59,10 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
   (d / h)^2)`` there; a periodogram scatters exponentially about its mean, so that a mode's band of
   ``2 r + 1`` lines holds such a line with probability under ``LINE_P``: ``conc(r) = max(CONC,
   log2((2 r + 1) / LINE_P))``), when ``h >= H_MIN`` its band does not rise ``RISE`` times over the
-  lines 2 to 4 half-widths away (a broad mode with a harmonic on it rises), and one sinusoid holds
+  lines 2 to 4 half-widths away (a broad mode with a harmonic on it rises) or, rising, keeps no peak
+  once the sinusoid is taken out (under ``PEAK_Z`` standard errors of a random background,
+  :func:`identifier.modal.harmonics_poles.peak_left`: a median of the few lines of a narrow band
+  rises twice over its surroundings by chance in about one band in six), and one sinusoid holds
   more of the pole's peak than a mode's random response of ``D`` decay times would (the coherent
   share, :func:`identifier.modal.harmonics_poles.coherent_share`: over ``share_bound(D) = 1 -
   SHARE_P^(1 / sqrt(D))``, as a mode's exceeds with probability about ``SHARE_P``);
@@ -110,7 +113,7 @@ import numpy as np
 from .harmonics_lines import (BLOCKS, CONC, DOUBTFUL, H_MIN, LIKELY, LINE, MAX_LINES, RISE, SKIRT, STILL,  # noqa: F401
                               SURE, WINDOW, Line, _spectrum, background, band_lines, detect, fit, kurtosis, measure,
                               spatial_excess, subtract)
-from .harmonics_poles import _pole_line, coherent_share, conc, hann_gain, share_bound  # noqa: F401
+from .harmonics_poles import PEAK_Z, _pole_line, coherent_share, conc, hann_gain, peak_left, share_bound  # noqa: F401
 from .support import ZETA_FLOOR
 
 
@@ -207,9 +210,15 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             w, h = float(omega[i]), float(zeta_abs[i] * omega[i] / bin_w)
             j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
             rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
-            line_like = excess >= conc(int(np.ceil(max(h, 2.0)))) and not rises
-            if not (line_like or h < H_MIN):
-                continue
+            strong = excess >= conc(int(np.ceil(max(h, 2.0))))
+            if not ((strong and not rises) or h < H_MIN):
+                if not strong:
+                    continue
+                share = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))[0]  # ... unless no peak is left
+                if not (share >= share_bound(2 * np.pi * h) and peak_left(y, dt, P, w, float(zeta_abs[i])) < PEAK_Z):
+                    continue
+                rises = False
+            line_like = strong and not rises
             share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
             if h < H_MIN and not share >= share_bound(2 * np.pi * h):  # a weak line's poles stray beside it
                 share, ratio, k = _beside(y, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)

@@ -12,13 +12,15 @@ decay times in the record.
 from __future__ import annotations
 
 import numpy as np
+from scipy import stats
 from scipy.optimize import minimize_scalar
 
 from .harmonics_lines import CONC, H_MIN, WINDOW, _spectrum, fit
-from .harmonics_spatial import GAP, independent_lines
+from .harmonics_spatial import GAP, HANN, independent_lines
 
 SHARE_P = 1e-3  # chance that a mode's random response gives a coherent share as large (coherent_share)
 LINE_P = 1e-3  # chance that a mode's band holds a line over the line test's threshold (conc)
+PEAK_Z = float(stats.norm.isf(SHARE_P))  # a pole's band keeps a peak without its line (peak_left): 3.09
 
 
 def conc(r: int) -> float:
@@ -84,14 +86,8 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
         return float("nan"), 0.0, -1
     band = np.arange(j0 - r, j0 + r + 1)
     j = int(band[np.argmax(P[band])])
-    t = np.arange(n) * dt
-    best = minimize_scalar(lambda w: -float(np.sum(np.abs(fit(y, w, t))**2)),
-                           bounds=((j - 0.75) * bin_w, (j + 0.75) * bin_w), method="bounded",
-                           options={"xatol": 1e-4 * bin_w})
-    w = float(best.x)
-    a = fit(y, w, t)
+    w, rest = _take_out(y, dt, j)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
-    rest = y - np.outer(a.real, np.cos(w * t)) + np.outer(a.imag, np.sin(w * t))
     Xr = _spectrum(rest, rms)
     ratio = float(P[j] / max(bg[j], 1e-300)) / hann_gain(w / bin_w - j)  # the line's power wherever it falls
     white = _whitened_share(_spectrum(y, rms), Xr, j0, r)
@@ -102,6 +98,62 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     if before <= 0:
         return float("nan"), ratio, j
     return 1.0 - float(np.sum(Pr - bg[band])) / before, ratio, j
+
+
+def _take_out(y: np.ndarray, dt: float, j: int) -> tuple[float, np.ndarray]:
+    """The sinusoid within 0.75 lines of line ``j`` that holds most of ``y`` (m, n) (the frequency
+    ``w`` rad/s maximising ``sum_c |a_c - i b_c|^2``, least squares), and ``y`` less it."""
+    n = y.shape[1]
+    bin_w = 2 * np.pi / (n * dt)
+    t = np.arange(n) * dt
+    best = minimize_scalar(lambda w: -float(np.sum(np.abs(fit(y, w, t))**2)),
+                           bounds=((j - 0.75) * bin_w, (j + 0.75) * bin_w), method="bounded",
+                           options={"xatol": 1e-4 * bin_w})
+    w = float(best.x)
+    a = fit(y, w, t)
+    return w, y - np.outer(a.real, np.cos(w * t)) + np.outer(a.imag, np.sin(w * t))
+
+
+def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float) -> float:
+    """The peak a pole's band keeps once the sinusoid at its strongest line is taken out, in
+    standard errors of a random background: over the band ``B`` of :func:`coherent_share` less
+    the lines within ``GAP`` of the strongest (what a fit leaves of a strong line stays there;
+    ``k`` lines), ``rho = sum_B (T'_k - b) / sigma`` with ``T'`` the residual's whitened
+    lines and ``b`` their expected value as in :func:`_whitened_share`, and
+
+        sigma = b k sqrt(HANN / (k m) + 1 / (m N_e)),
+
+    a random line's ``T`` being ``b`` times a chi-square of ``2 m`` degrees of freedom over ``2 m``
+    (``k`` lines hold ``k / HANN`` independent ones), plus the error of the ring's estimate of ``S``
+    common to the band (``sum_B T = tr(S^-1 sum_B X X^H)``: relative variance ``1 / (m N_e)`` of
+    the trace). A mode's peak under the line
+    leaves ``rho`` of several (a mode of 5 lines half-width over 16 channels: about 9); a line on
+    a flat background leaves about 0 (a little under: the fit takes the random part at its
+    frequency too), over ``PEAK_Z`` with probability about ``SHARE_P`` (Monte Carlo,
+    tests/test_modal_harmonics_poles.py). NaN with one channel, ``N_e < 2 m`` or a band off the
+    spectrum (as :func:`_whitened_share`)."""
+    n = y.shape[1]
+    bin_w = 2 * np.pi / (n * dt)
+    h = zeta * omega / bin_w
+    j0, r = int(round(omega / bin_w)), int(np.ceil(max(2 * h, 3.0)))
+    m, L = y.shape[0], P.size
+    n_e = independent_lines(WINDOW)
+    if m < 2 or n_e < 2 * m or j0 - r - WINDOW < 1 or j0 + r + WINDOW >= L:
+        return float("nan")
+    band = np.arange(j0 - r, j0 + r + 1)
+    j = int(band[np.argmax(P[band])])
+    rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
+    X = _spectrum(y, rms)
+    Xr = _spectrum(_take_out(y, dt, j)[1], rms)
+    band = band[np.abs(band - j) > GAP]  # what the fit leaves of a strong line stays in its lines
+    d = np.arange(r + GAP + 1, r + WINDOW + 1)
+    ring = X[:, np.r_[j0 - d, j0 + d]]
+    S = ring @ ring.conj().T / ring.shape[1]
+    S += 1e-12 * np.trace(S).real / m * np.eye(m)
+    b = m * n_e / (n_e - m)
+    Tr = np.real(np.sum(np.conj(Xr[:, band]) * np.linalg.solve(S, Xr[:, band]), axis=0))
+    sigma = b * band.size * np.sqrt(HANN / (band.size * m) + 1.0 / (m * n_e))
+    return float(np.sum(Tr - b) / sigma)
 
 
 def _whitened_share(X: np.ndarray, Xr: np.ndarray, j0: int, r: int) -> float:
