@@ -41,8 +41,8 @@ is smooth over the band apart from the modes. Fails (keeps a pole) where
 the band holds a peak that is no mode (a harmonic left in the record, a
 coloured force); rejects a true mode whose peak in the summed spectrum is
 within the scatter of its neighbours' response (a weak mode that SSI
-resolves by its shape), which is why :mod:`identifier.modal.support`
-applies it to shadows only.
+resolves by its shape), which is why :mod:`identifier.modal.peak_pairs`
+applies it to shadows, pairs and candidates projected apart only.
 """
 from __future__ import annotations
 
@@ -110,34 +110,67 @@ def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
     return total
 
 
+def half_width(omega: np.ndarray, zeta: np.ndarray, T: float) -> np.ndarray:
+    """The band half-width ``h`` rad/s (k,) of the module docstring for
+    candidates at ``omega`` (k,) rad/s, damping ``zeta`` (k,), in records of
+    ``T`` s."""
+    omega, z = np.asarray(omega, float), np.maximum(np.abs(np.asarray(zeta, float)), 1e-6)
+    return np.minimum(np.maximum.reduce([HALF_WIDTHS * z * omega, LOOSE * omega,
+                                         np.full_like(omega, MIN_LINES * 2.0 * np.pi / T)]), 0.5 * omega)
+
+
+def band(summed: np.ndarray, lines: np.ndarray, centre: float, half: float
+         ) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """The line averages ``P`` (b,) and their frequencies (b,) rad/s of the
+    band ``|omega - centre| <= half`` of ``summed`` at ``lines`` rad/s, in
+    blocks of the returned number of lines (at most ``MAX_BLOCKS`` blocks);
+    None when the band holds under 3 lines."""
+    inside = np.flatnonzero(np.abs(lines - centre) <= half)
+    if inside.size < 3:
+        return None
+    size = -(-inside.size // MAX_BLOCKS)  # lines averaged per block
+    inside = inside[: inside.size // size * size]
+    return summed[inside].reshape(-1, size).mean(axis=1), lines[inside].reshape(-1, size).mean(axis=1), size
+
+
+def places(n: int, zeta: float, omega: float, T: float) -> float:
+    """``N`` of the module docstring: the half-power bands of a candidate at
+    ``omega`` rad/s, damping ``zeta``, in the ``n // 2`` lines of ``T`` s."""
+    return (n / 2) / max(1.0, max(zeta, 1e-6) * omega * T / np.pi)
+
+
 def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
-            zeta: np.ndarray, which: list[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+            zeta: np.ndarray, which: list[int] | None = None,
+            excluded: dict[int, list[int]] | None = None,
+            summed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per candidate (k,): ``LR`` and its p-value bound with the Bonferroni
     factor (module docstring), for candidates at ``omega`` (k,) rad/s,
     damping ``zeta`` (k,), in stationary records
     (m, n_i) sampled at ``dt`` s; only the candidates ``which`` (all when
-    None) are tested, the others are their neighbours only. A candidate
-    untested or whose band holds under 3 lines gets ``LR`` 0 and p-value 1."""
+    None) are tested, the others are their neighbours only (those the band
+    resolves, module docstring; never those ``excluded[c]`` lists for
+    candidate ``c``). ``summed``: the periodogram (n // 2 + 1,) of the
+    records cut to the shortest, :func:`summed_periodogram` when None. A
+    candidate untested or whose band holds under 3 lines gets ``LR`` 0 and
+    p-value 1."""
     omega, zeta = np.asarray(omega, float), np.abs(np.asarray(zeta, float))
     n = min(y.shape[1] for y in records)
     T = n * dt
     lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
     k = omega.size
     stat, pvalue = np.zeros(k), np.ones(k)
-    summed = summed_periodogram(records)
+    summed = summed_periodogram(records) if summed is None else summed
     for c in range(k) if which is None else which:
         z = max(zeta[c], 1e-6)
-        half = min(max(HALF_WIDTHS * z * omega[c], LOOSE * omega[c], MIN_LINES * 2.0 * np.pi / T), 0.5 * omega[c])
-        band = np.flatnonzero(np.abs(lines - omega[c]) <= half)
-        if band.size < 3:
+        half = float(half_width(omega[c : c + 1], zeta[c : c + 1], T)[0])
+        lines_in = band(summed, lines, omega[c], half)
+        if lines_in is None:
             continue
-        size = -(-band.size // MAX_BLOCKS)  # lines averaged per block
-        band = band[: band.size // size * size]
-        P = summed[band].reshape(-1, size).mean(axis=1)
-        w = lines[band].reshape(-1, size).mean(axis=1)
+        P, w, size = lines_in
         x = (w - omega[c]) / half
+        far = (excluded or {}).get(c, [])
         others = [peak_shape(w, omega[j], max(zeta[j], 1e-6)) for j in range(k)
-                  if j != c and abs(omega[j] - omega[c]) > zeta[j] * omega[j] + zeta[c] * omega[c]]
+                  if j != c and j not in far and abs(omega[j] - omega[c]) > zeta[j] * omega[j] + zeta[c] * omega[c]]
         X0 = np.column_stack([1.0 - x, 1.0 + x] + others)
         base, a0 = whittle(P, X0, size)
         best = base
@@ -145,6 +178,5 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
             value, _ = whittle(P, np.column_stack([X0, peak_shape(w, omega[c], z * step)]), size, np.r_[a0, 0.0])
             best = max(best, value)
         stat[c] = 2.0 * (best - base)
-        places = (n / 2) / max(1.0, z * omega[c] * T / np.pi)
-        pvalue[c] = min(1.0, 0.5 * chi_square.sf(stat[c], 1) * len(ZETA_STEPS) * places)
+        pvalue[c] = min(1.0, 0.5 * chi_square.sf(stat[c], 1) * len(ZETA_STEPS) * places(n, z, omega[c], T))
     return stat, pvalue

@@ -54,7 +54,7 @@ a run add up as independent records):
   more stable poles is kept.
 
 Spectral peak (stationary records), for a mode of the shape of a better
-supported one (MAC above ``SHADOW_MAC``, the stabilisation's ``mac_min``): the record's spectrum holds a
+supported one (MAC above ``peak_pairs.SHADOW_MAC``, the stabilisation's ``mac_min``): the record's spectrum holds a
 peak at the mode, by the likelihood-ratio test of
 :mod:`identifier.modal.peak_test` (p-value under ``peak_test.ALPHA`` over
 the half-power bands the record holds). SSI of high order fits poles to
@@ -64,6 +64,13 @@ the orders or more, coherent, found again by the jackknife (whose
 replicates share the noise), but without a peak of their own. Applied to
 such shadows only: the summed spectrum hides weak modes of other shapes
 under their neighbours' response, which SSI resolves by their shapes.
+Before it (:mod:`identifier.modal.peak_pairs`, ``SHADOW_MAC`` there): a
+pair of alike shapes within a few half-power half-widths is one mode
+unless the band needs two oscillator terms against one fitted freely (one
+broad mode fitted by two poles, the better supported of which can be the
+spurious one), and a candidate beside a better supported one of another
+shape within its standard errors must show a peak in the channels
+projected on its shape apart from its neighbours'.
 
 Temporal coherence (:mod:`identifier.modal`) is tested before these and its
 failures are listed with them. A mode stable at under ``MIN_STABLE`` of the model orders
@@ -119,7 +126,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
-from . import peak_test
+from . import peak_pairs
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -133,7 +140,6 @@ MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
 SAME_SHAPE = 0.01  # ... two unresolved shapes whose difference has a chi-square above chance this often: one mode
-SHADOW_MAC = 0.95  # a mode this alike (MAC) to a better supported one must show a spectral peak
 BIAS = 1.0  # the short-record bias's standard deviation, x 1 / T rad/s
 
 
@@ -205,14 +211,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
                           f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
                           f"{BANDWIDTH:g} zeta)")
     shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
-    shadowed = (shape_mac > SHADOW_MAC) & (np.asarray(support)[None, :] > np.asarray(support)[:, None])
-    doubted = [i for i in range(k) if not reasons[i] and shadowed[i].any()]
-    if spectrum is not None and not decay and doubted:
-        stat, pvalue = peak_test.peak_lr(spectrum[0], spectrum[1], omega, zeta, doubted)
-        for i in doubted:
-            if pvalue[i] >= peak_test.ALPHA:
-                reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
-                              f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
+    if spectrum is not None and not decay:
+        peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), shapes,
+                          reasons)
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC

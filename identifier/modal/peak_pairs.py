@@ -1,0 +1,247 @@
+"""Which candidate modes of a stationary record hold a spectral peak of
+their own (:mod:`identifier.modal.support`): the pair test, the projected
+test and the shadow test, by Whittle likelihood ratios on the periodogram
+of :mod:`identifier.modal.peak_test`.
+
+Pairs: two candidates ``a``, ``b`` of alike shapes (:func:`alike`) within
+``PAIR_WIDTHS`` half-power half-widths of the broader,
+
+    |omega_a - omega_b| <= PAIR_WIDTHS max(zeta_a omega_a, zeta_b omega_b),
+
+may be one broad mode that SSI fits with two poles. Over the band
+``|omega - (omega_a + omega_b) / 2| <= max(h_a, h_b) + |omega_a - omega_b| / 2``
+(``h``: :func:`identifier.modal.peak_test.half_width`), with the
+background and the neighbours that both resolve (as in ``peak_test``),
+two models are fitted by Whittle maximum likelihood:
+
+    S1 = S0 + c_a L(omega; omega_a, s_a zeta_a) + c_b L(omega; omega_b, s_b zeta_b)
+    S_one = S0 + c L(omega; omega_f, zeta_f),
+
+``S1`` at the best damping steps ``s_a, s_b`` of ``peak_test.ZETA_STEPS``,
+``S_one`` at the best ``(omega_f, zeta_f)`` over a grid: ``FREE_STEPS``
+frequencies over ``[min(omega_a, omega_b) - d, max(omega_a, omega_b) +
+d]`` (``d`` the broader's ``zeta omega``) and ``omega_a``, ``omega_b``
+themselves, each at the damping ratios ``zeta_a`` and ``zeta_b`` times
+each step. ``LR = 2 (log L1 - log L_one)``. The record needs two oscillator
+terms when
+
+    p = len(ZETA_STEPS)^2 2 PAIR_WIDTHS P(chi2(1) > LR) / 2 < peak_test.ALPHA
+
+(Bonferroni over the damping steps of both terms and over the ``2
+PAIR_WIDTHS`` half-widths of the window in which the second pole of one
+mode lies: the pair's places are given by SSI, unlike the single test's
+noise pole, which could lie in any of the record's bands); the
+free fit holds ``S1``'s fit with one of its terms removed, so that under
+one mode ``LR`` is at most the single-candidate statistic of the other
+term (null law ``chi2(1) / 2`` per damping step, ``peak_test``): the
+level stays ``ALPHA``. Otherwise the candidate whose pole ``s = -zeta
+omega + i omega sqrt(1 - zeta^2)`` lies nearer the free fit's is kept
+and the other is rejected (comparing the two terms' likelihoods instead
+fails both ways: with the damping stepped, a narrow pole beside a broad
+mode fits it as well as the mode's own pole, and at their own damping a
+narrow term fits the band's random scatter). Pairs are taken
+closest first (in half-widths); a candidate already rejected leaves its
+pairs.
+
+Apart (projected test): a candidate ``c`` with a better supported one of
+another shape (:func:`alike` at most ``PAIR_MAC``) inside its band
+(``h_c``) and within ``REACH`` standard errors, ``|omega_j - omega_c| <=
+REACH sqrt(se_c^2 + se_j^2)`` (a second, distorted estimate of the
+neighbour's frequency), is tested on the periodogram of the channels
+(scaled to unit RMS, ``Y_k`` (m,)) projected on its shape apart from the
+shapes ``V`` of every candidate of another shape in its band:
+
+    P_k = |w^H Y_k|^2,   w = (I - V V^+) u_c / |(I - V V^+) u_c|
+
+(``u_c`` its unit shape in the scaled channels): one channel's
+periodogram, the spectrum times one exponential per line, so that
+:func:`identifier.modal.peak_test.peak_lr`'s null law and level hold. The
+neighbours' response is removed but for their shapes' errors (their
+oscillator terms stay in ``S0``), while the candidate's own mode keeps its
+peak. Skipped when ``|(I - V V^+) u_c| < APART`` (the shapes do not tell
+them apart).
+
+Shadows (last): a candidate of the shape of a better supported one (MAC
+of the complex shapes over ``SHADOW_MAC``) is tested by
+:func:`identifier.modal.peak_test.peak_lr` on the summed periodogram, the
+rejected partners of pairs not among its neighbours.
+
+Fails (drops a true mode) where two true modes of alike shapes lie within
+``PAIR_WIDTHS`` half-widths and the record does not hold enough of them
+to need two terms in the summed periodogram, or where a weak true mode
+beside a strong one holds too little of the projected periodogram to
+pass the single test's Bonferroni factor; keeps a spurious pole whose
+neighbour is no better supported or over ``REACH`` standard errors away.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import chi2 as chi_square
+
+from structbench.models.mac import mac
+
+from . import peak_test
+from .peak_test import ZETA_STEPS, peak_shape, whittle
+from .ssi.poles import real_shapes
+
+SHADOW_MAC = 0.95  # a mode this alike (MAC) to a better supported one must show a spectral peak
+PAIR_MAC = 0.8  # two modes this alike (MAC of complex or real shapes) ...
+PAIR_WIDTHS = 3.0  # ... within this many half-power half-widths zeta omega of the broader: the pair test
+FREE_STEPS = 13  # frequencies of the one-oscillator fit's grid
+REACH = 4.0  # ... within this many standard errors of the candidate's frequency
+APART = 0.3  # least norm of a unit shape's part apart from its neighbours' shapes for the projected test
+
+
+def alike(shapes: np.ndarray) -> np.ndarray:
+    """(k, k): the larger of the MAC of the complex ``shapes`` (m, k) and of
+    their real forms (:func:`identifier.modal.ssi.poles.real_shapes`; with
+    sensors of several quantities a shape's entries differ in phase by
+    quantity, and the complex MAC of two estimates of one mode can be low)."""
+    if shapes.shape[1] < 2:
+        return np.zeros((shapes.shape[1],) * 2)
+    return np.maximum(mac(shapes, shapes), mac(real_shapes(shapes), real_shapes(shapes)))
+
+
+def pairs(omega: np.ndarray, zeta: np.ndarray, shapes: np.ndarray, open_: list[int]) -> list[tuple[int, int]]:
+    """The pairs ``(a, b)``, ``a < b``, of candidates of ``open_`` that the
+    pair test takes (module docstring), closest first in half-widths:
+    candidates at ``omega`` (k,) rad/s, damping ``zeta`` (k,), complex
+    ``shapes`` (m, k)."""
+    width = np.abs(zeta) * omega
+    like = alike(shapes)
+    found = [(abs(omega[a] - omega[b]) / max(width[a], width[b], 1e-300), a, b)
+             for a in open_ for b in open_ if a < b and like[a, b] > PAIR_MAC]
+    return [(a, b) for gap, a, b in sorted(found) if gap <= PAIR_WIDTHS]
+
+
+def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, zeta: np.ndarray,
+            a: int, b: int, excluded: set[int]) -> tuple[float, float, int]:
+    """``LR``, its p-value bound and the candidate (``a`` or ``b``) that one
+    oscillator term prefers (module docstring), from the summed periodogram
+    ``summed`` at ``lines`` rad/s of records of ``T`` s; candidates
+    at ``omega`` (k,) rad/s, damping ``zeta`` (k,); the candidates
+    ``excluded`` are no neighbours. A band of under 3 lines: ``LR`` 0,
+    p-value 1, ``a``."""
+    z = np.maximum(np.abs(zeta), 1e-6)
+    centre, gap = 0.5 * (omega[a] + omega[b]), abs(omega[a] - omega[b])
+    half = min(float(peak_test.half_width(omega[[a, b]], z[[a, b]], T).max()) + 0.5 * gap, 0.5 * centre)
+    lines_in = peak_test.band(summed, lines, centre, half)
+    if lines_in is None:
+        return 0.0, 1.0, a
+    P, w, size = lines_in
+    x = (w - centre) / half
+    others = [peak_shape(w, omega[j], z[j]) for j in range(omega.size)
+              if j not in (a, b) and j not in excluded
+              and all(abs(omega[j] - omega[c]) > z[j] * omega[j] + z[c] * omega[c] for c in (a, b))]
+    X0 = np.column_stack([1.0 - x, 1.0 + x] + others)
+    _, a0 = whittle(P, X0, size)
+
+    def fit(*terms: tuple[float, float]) -> float:
+        X = np.column_stack([X0] + [peak_shape(w, w0, z0) for w0, z0 in terms])
+        return whittle(P, X, size, np.r_[a0, np.zeros(len(terms))])[0]
+
+    two = max(fit((omega[a], z[a] * sa), (omega[b], z[b] * sb)) for sa in ZETA_STEPS for sb in ZETA_STEPS)
+    dampings = np.r_[z[a] * np.array(ZETA_STEPS), z[b] * np.array(ZETA_STEPS)]
+    spread = max(z[a] * omega[a], z[b] * omega[b])
+    grid = np.r_[omega[a], omega[b],
+                 np.linspace(min(omega[a], omega[b]) - spread, max(omega[a], omega[b]) + spread, FREE_STEPS)]
+    trials = [(fit((w0, zz)), w0, zz) for w0 in grid if w0 > 0 for zz in dampings]
+    one, w_f, z_f = max(trials)
+    stat = max(0.0, 2.0 * (two - one))
+    pvalue = min(1.0, 0.5 * chi_square.sf(stat, 1) * len(ZETA_STEPS) ** 2 * 2.0 * PAIR_WIDTHS)
+    pole = (lambda w0, z0: complex(-z0 * w0, w0 * np.sqrt(max(1.0 - z0 * z0, 0.0))))  # s rad/s
+    near = [abs(pole(omega[c], z[c]) - pole(w_f, z_f)) for c in (a, b)]
+    return stat, pvalue, a if near[0] <= near[1] else b
+
+
+def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
+           support: np.ndarray, shapes: np.ndarray, reasons: list[str]) -> None:
+    """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
+    reason) that the pair test or the shadow test rejects (module
+    docstring; the shadow test: a candidate whose shape has MAC over
+    ``SHADOW_MAC`` with a better supported one's needs a peak of its own,
+    :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
+    (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
+    complex ``shapes`` (m, k), in stationary records (m, n_i) at ``dt`` s."""
+    k = omega.size
+    if k == 0:
+        return
+    open_ = [i for i in range(k) if not reasons[i]]
+    dropped: set[int] = set()
+    found = pairs(omega, zeta, shapes, open_) if k > 1 else []
+    if found:
+        n = min(y.shape[1] for y in records)
+        T = n * dt
+        summed = peak_test.summed_periodogram(records)
+        lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
+        for a, b in found:
+            if a in dropped or b in dropped:
+                continue
+            stat, pvalue, keep = pair_lr(summed, lines, T, omega, zeta, a, b, dropped)
+            if pvalue >= peak_test.ALPHA:
+                lose = b if keep == a else a
+                dropped.add(lose)
+                reasons[lose] = (f"one mode with the mode at {omega[keep]:.6g} rad/s: one oscillator term "
+                                 f"explains their band (likelihood ratio of two terms {stat:.3g}, p-value "
+                                 f"{pvalue:.2g}; needs under {peak_test.ALPHA:g})")
+    _apart(records, dt, omega, zeta, omega_std, support, shapes, reasons, open_, dropped)
+    shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
+    support = np.asarray(support)
+    shadowed = (shape_mac > SHADOW_MAC) & (support[None, :] > support[:, None])
+    shadowed[:, sorted(dropped)] = False  # a rejected partner shadows nothing
+    doubted = [i for i in open_ if i not in dropped and shadowed[i].any()]
+    if doubted:
+        stat, pvalue = peak_test.peak_lr(records, dt, omega, zeta, doubted,
+                                         excluded={i: sorted(dropped) for i in doubted})
+        for i in doubted:
+            if pvalue[i] >= peak_test.ALPHA:
+                reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
+                              f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
+
+
+def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.ndarray:
+    """``|w^H Y_k|^2`` (n // 2 + 1,) summed over the records (m, n_i) cut to
+    the shortest: ``Y_k`` (m,) the transforms of the channels scaled to unit
+    RMS (as :func:`identifier.modal.peak_test.summed_periodogram`), ``w``
+    = ``weights`` (m,) complex, in the scaled channels."""
+    n = min(y.shape[1] for y in records)
+    total = np.zeros(n // 2 + 1)
+    for y in records:
+        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
+        rms = y.std(axis=1)
+        total += np.abs(weights.conj() @ peak_test.rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)) ** 2
+    return total
+
+
+def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
+           support: np.ndarray, shapes: np.ndarray, reasons: list[str], open_: list[int], dropped: set[int]) -> None:
+    """The projected test (module docstring): each candidate of ``open_``
+    not in ``dropped`` with a better supported one of another shape within
+    ``PAIR_WIDTHS`` half-widths of the broader, tested on the periodogram
+    of the channels projected on its shape apart from those neighbours'."""
+    n = min(y.shape[1] for y in records)
+    rms = np.sqrt(np.mean([np.var(y[:, :n], axis=1) for y in records], axis=0))
+    scaled = shapes / np.where(rms > 0, rms, 1.0)[:, None]
+    half = peak_test.half_width(omega, zeta, n * dt)
+    se = np.where(np.isfinite(omega_std), omega_std, np.inf)
+    like = alike(shapes)
+    for c in open_:
+        if c in dropped:
+            continue
+        near = [j for j in open_ if j != c and j not in dropped and support[j] > support[c]
+                and like[c, j] <= PAIR_MAC and abs(omega[j] - omega[c]) <= half[c]
+                and abs(omega[j] - omega[c]) <= REACH * np.hypot(se[c], se[j])]
+        if not near:
+            continue
+        u = scaled[:, c] / np.linalg.norm(scaled[:, c])
+        V = scaled[:, [j for j in range(omega.size) if j != c and j not in dropped and like[c, j] <= PAIR_MAC
+                       and abs(omega[j] - omega[c]) <= half[c]]]
+        w = u - V @ np.linalg.lstsq(V, u, rcond=None)[0]
+        if np.linalg.norm(w) < APART:
+            continue
+        stat, pvalue = peak_test.peak_lr(records, dt, omega, zeta, [c], excluded={c: sorted(dropped)},
+                                         summed=projected_periodogram(records, w / np.linalg.norm(w)))
+        if pvalue[c] >= peak_test.ALPHA:
+            reasons[c] = (f"no spectral peak of its own in its shape apart from the mode at "
+                          f"{omega[near[0]]:.6g} rad/s (likelihood ratio {stat[c]:.3g}, p-value "
+                          f"{pvalue[c]:.2g}; needs under {peak_test.ALPHA:g})")
