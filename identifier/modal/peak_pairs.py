@@ -157,8 +157,8 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
            support: np.ndarray, shapes: np.ndarray, reasons: list[str]) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
-    reason) that the pair test or the shadow test rejects (module
-    docstring; the shadow test: a candidate whose shape has MAC over
+    reason) that the pair test, the projected test or the shadow test
+    rejects (module docstring; the shadow test: a candidate whose shape has MAC over
     ``SHADOW_MAC`` with a better supported one's needs a peak of its own,
     :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
     (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
@@ -185,6 +185,7 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                                  f"explains their band (likelihood ratio of two terms {stat:.3g}, p-value "
                                  f"{pvalue:.2g}; needs under {peak_test.ALPHA:g})")
     _apart(records, dt, omega, zeta, omega_std, support, shapes, reasons, open_, dropped)
+    open_ = [i for i in open_ if not reasons[i]]
     shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
     support = np.asarray(support)
     shadowed = (shape_mac > SHADOW_MAC) & (support[None, :] > support[:, None])
@@ -216,9 +217,10 @@ def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.
 def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
            support: np.ndarray, shapes: np.ndarray, reasons: list[str], open_: list[int], dropped: set[int]) -> None:
     """The projected test (module docstring): each candidate of ``open_``
-    not in ``dropped`` with a better supported one of another shape within
-    ``PAIR_WIDTHS`` half-widths of the broader, tested on the periodogram
-    of the channels projected on its shape apart from those neighbours'."""
+    not rejected, with a better supported one of another shape inside its
+    band and within ``REACH`` standard errors, tested on the periodogram of
+    the channels projected on its shape apart from the shapes of the
+    other-shaped candidates in its band (``dropped``: none of them)."""
     n = min(y.shape[1] for y in records)
     rms = np.sqrt(np.mean([np.var(y[:, :n], axis=1) for y in records], axis=0))
     scaled = shapes / np.where(rms > 0, rms, 1.0)[:, None]
@@ -226,9 +228,9 @@ def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     se = np.where(np.isfinite(omega_std), omega_std, np.inf)
     like = alike(shapes)
     for c in open_:
-        if c in dropped:
+        if c in dropped or reasons[c] or not np.linalg.norm(scaled[:, c]) > 0:
             continue
-        near = [j for j in open_ if j != c and j not in dropped and support[j] > support[c]
+        near = [j for j in open_ if j != c and not reasons[j] and support[j] > support[c]
                 and like[c, j] <= PAIR_MAC and abs(omega[j] - omega[c]) <= half[c]
                 and abs(omega[j] - omega[c]) <= REACH * np.hypot(se[c], se[j])]
         if not near:
