@@ -188,7 +188,6 @@ def unseen_record(seed: int) -> dict:
     quantities = rng.choice(QUANTITIES, m)
     lead = 0 if kind == "decay" else int(min(5 / (zeta * omega).min() / dt, 4 * n))
     q, v, a = (np.zeros((p, n)) for _ in range(3))
-    power = np.zeros(p)
     for r in range(p):
         Ad, Bd = _mode_filter(omega[r], zeta[r], dt)
         size = np.exp(rng.uniform(0.0, np.log(100.0)))

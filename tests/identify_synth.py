@@ -5,9 +5,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
+
+if TYPE_CHECKING:
+    from structbench.identifier.io.traces import Trace
 
 UNITS = {"displacement": ("m", "rad"), "velocity": ("m/s", "rad/s"),
          "acceleration": ("m/s^2", "rad/s^2"), "force": ("N", "N m")}

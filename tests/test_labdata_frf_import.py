@@ -5,7 +5,6 @@ export (written by pyuff), from pyuff directly (units g over lbf, a -Z
 sensor) and from a hand-written ASCII record of the published layout."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest

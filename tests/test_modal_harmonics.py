@@ -5,7 +5,6 @@ excitation adds them (bench/harness/disturbance.py) and ``score`` counts
 them (bench/evaluation/modal_scores.py)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest

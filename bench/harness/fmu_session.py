@@ -20,7 +20,6 @@ fatal raises :class:`FmuError` carrying the FMU's error messages.
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import hashlib
 import shutil
 import sys

@@ -29,7 +29,7 @@ from collections.abc import Iterator
 import numpy as np
 import scipy.sparse as sp
 
-from .regression import DENSE_DOF, Layout, chunks, raw, raw_variance
+from .regression import Layout, chunks, raw, raw_variance
 
 
 def equation_matrix(lay: Layout, theta: np.ndarray) -> np.ndarray:
