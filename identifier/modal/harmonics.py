@@ -66,8 +66,11 @@ its decay times in it (``|zeta|``: the median over its stable poles) and
   more of the pole's peak than a mode's random response of ``D`` decay times would (the coherent
   share, :func:`identifier.modal.harmonics_poles.coherent_share`: over ``share_bound(D) = 1 -
   SHARE_P^(1 / sqrt(D))``, as a mode's exceeds with probability about ``SHARE_P``);
-- a narrow damped SSI mode (``h < H_MIN``) at a line standing ``LINE`` times over its neighbours'
-  median (or over the spatial test's bar) that one sinusoid holds over ``share_bound(D)`` of
+- a narrow damped SSI mode (``h < H_MIN``), or a broader one whose line the ``line`` test does not
+  reach and whose band keeps no peak once the sinusoid is taken out (``peak_left`` under ``PEAK_Z``: a
+  weak line's poles stray several lines from it, with a half-width of several lines), at a line
+  standing ``LINE`` times over its neighbours' median (or over the spatial test's bar) that one
+  sinusoid holds over ``share_bound(D)`` of
   (``coherent``; the share is measured in every sensor's lines when the record has 2 channels or
   more, :func:`identifier.modal.harmonics_poles.coherent_share`): a weak harmonic that SSI
   fitted with a pole of a few decay times (its kurtosis is a random response's when the band holds
@@ -211,20 +214,18 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
             rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
             strong = excess >= conc(int(np.ceil(max(h, 2.0))))
+            share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
+            bare = False  # a broad pole whose band keeps no peak once the sinusoid is out
             if not ((strong and not rises) or h < H_MIN):
-                if not strong:
-                    continue
-                share = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))[0]  # ... unless no peak is left
                 if not (share >= share_bound(2 * np.pi * h) and peak_left(y, dt, P, w, float(zeta_abs[i])) < PEAK_Z):
                     continue
-                rises = False
+                rises, bare = False, True
             line_like = strong and not rises
-            share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
             if h < H_MIN and not share >= share_bound(2 * np.pi * h):  # a weak line's poles stray beside it
                 share, ratio, k = _beside(y, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)
             sinusoid = share >= share_bound(2 * np.pi * h)  # NaN: no peak
             test = "line" if line_like and sinusoid else ""
-            if not test and h < H_MIN and (ratio >= LINE or (k >= 0 and over[k] >= 1)) and sinusoid:
+            if not test and (h < H_MIN or bare) and (ratio >= LINE or (k >= 0 and over[k] >= 1)) and sinusoid:
                 test, j = "coherent", k
             if not test:
                 continue

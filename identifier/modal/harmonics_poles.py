@@ -68,7 +68,9 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     Over the band ``B`` of lines ``|j - j0| <= r``, ``r = ceil(max(2 h,
     3))``: the sinusoid ``a_c cos(w t) + b_c sin(w t)`` fitted by least
     squares to every channel at the frequency ``w`` (within 0.75 lines of
-    the band's strongest line) that maximises ``sum_c |a_c - i b_c|^2`` is
+    the band's strongest line: of the whitened lines ``T_k`` of
+    :func:`_whitened_share` with 2 channels or more, where a sinusoid of
+    another shape stands out of a broad mode's peak, else of ``P``) that maximises ``sum_c |a_c - i b_c|^2`` is
     projected out of ``y``, and ``share = 1 - sum_B (P'_j - bg_j) / sum_B
     (P_j - bg_j)`` (``P'``: the residual's periodogram, scaled as ``P``).
     A harmonic on a random background leaves the background: a share near
@@ -85,12 +87,14 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     if j0 - r < 1 or j0 + r >= P.size - 1:
         return float("nan"), 0.0, -1
     band = np.arange(j0 - r, j0 + r + 1)
-    j = int(band[np.argmax(P[band])])
-    w, rest = _take_out(y, dt, j)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
+    X = _spectrum(y, rms)
+    T = _whitened_band(X, j0, r)
+    j = int(band[np.argmax(P[band] if T is None else T[0])])
+    w, rest = _take_out(y, dt, j)
     Xr = _spectrum(rest, rms)
     ratio = float(P[j] / max(bg[j], 1e-300)) / hann_gain(w / bin_w - j)  # the line's power wherever it falls
-    white = _whitened_share(_spectrum(y, rms), Xr, j0, r)
+    white = _whitened_share(X, Xr, j0, r)
     if np.isfinite(white):
         return white, ratio, j
     Pr = np.sum(np.abs(Xr[:, band])**2, axis=0)
@@ -117,7 +121,7 @@ def _take_out(y: np.ndarray, dt: float, j: int) -> tuple[float, np.ndarray]:
 def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float) -> float:
     """The peak a pole's band keeps once the sinusoid at its strongest line is taken out, in
     standard errors of a random background: over the band ``B`` of :func:`coherent_share` less
-    the lines within ``GAP`` of the strongest (what a fit leaves of a strong line stays there;
+    the lines within ``GAP`` of the strongest whitened line (what a fit leaves of a strong line stays there;
     ``k`` lines), ``rho = sum_B (T'_k - b) / sigma`` with ``T'`` the residual's whitened
     lines and ``b`` their expected value as in :func:`_whitened_share`, and
 
@@ -136,23 +140,18 @@ def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float
     bin_w = 2 * np.pi / (n * dt)
     h = zeta * omega / bin_w
     j0, r = int(round(omega / bin_w)), int(np.ceil(max(2 * h, 3.0)))
-    m, L = y.shape[0], P.size
-    n_e = independent_lines(WINDOW)
-    if m < 2 or n_e < 2 * m or j0 - r - WINDOW < 1 or j0 + r + WINDOW >= L:
-        return float("nan")
-    band = np.arange(j0 - r, j0 + r + 1)
-    j = int(band[np.argmax(P[band])])
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
     X = _spectrum(y, rms)
-    Xr = _spectrum(_take_out(y, dt, j)[1], rms)
-    band = band[np.abs(band - j) > GAP]  # what the fit leaves of a strong line stays in its lines
-    d = np.arange(r + GAP + 1, r + WINDOW + 1)
-    ring = X[:, np.r_[j0 - d, j0 + d]]
-    S = ring @ ring.conj().T / ring.shape[1]
-    S += 1e-12 * np.trace(S).real / m * np.eye(m)
+    white = _whitened_band(X, j0, r)
+    if white is None:
+        return float("nan")
+    lines = np.arange(-r, r + 1)
+    k = int(np.argmax(white[0]))
+    Xr = _spectrum(_take_out(y, dt, j0 + lines[k])[1], rms)
+    Tr = _whitened_band(X, j0, r, Xr)[1][np.abs(lines - lines[k]) > GAP]  # a strong line's fit leaves some
+    m, n_e = y.shape[0], independent_lines(WINDOW)
     b = m * n_e / (n_e - m)
-    Tr = np.real(np.sum(np.conj(Xr[:, band]) * np.linalg.solve(S, Xr[:, band]), axis=0))
-    sigma = b * band.size * np.sqrt(HANN / (band.size * m) + 1.0 / (m * n_e))
+    sigma = b * Tr.size * np.sqrt(HANN / (Tr.size * m) + 1.0 / (m * n_e))
     return float(np.sum(Tr - b) / sigma)
 
 
@@ -167,19 +166,29 @@ def _whitened_share(X: np.ndarray, Xr: np.ndarray, j0: int, r: int) -> float:
     shape than the background's leaves far less of the peak than in the summed periodogram; a
     mode's random response leaves the same share (its own shape dominates both sums). NaN with one
     channel, ``N_e < 2 m``, a band off the spectrum or no excess."""
-    m, L = X.shape
-    n_e = independent_lines(WINDOW)
-    if m < 2 or n_e < 2 * m or j0 - r - WINDOW < 1 or j0 + r + WINDOW >= L:
+    white = _whitened_band(X, j0, r, Xr)
+    if white is None:
         return float("nan")
+    T, Tr = white
+    m, n_e = X.shape[0], independent_lines(WINDOW)
+    b = m * n_e / (n_e - m)
+    before = float(np.sum(T - b))
+    return 1.0 - float(np.sum(Tr - b)) / before if before > 0 else float("nan")
+
+
+def _whitened_band(X: np.ndarray, j0: int, r: int, *more: np.ndarray) -> tuple[np.ndarray, ...] | None:
+    """``T_k = Z_k^H S^-1 Z_k`` over the band ``k = j0 - r .. j0 + r`` for ``Z`` = ``X`` and each of
+    ``more`` (transforms (m, lines)), ``S`` the ring mean of :func:`_whitened_share` from ``X``.
+    None with one channel, ``N_e < 2 m`` or a ring off the spectrum."""
+    m, L = X.shape
+    if m < 2 or independent_lines(WINDOW) < 2 * m or j0 - r - WINDOW < 1 or j0 + r + WINDOW >= L:
+        return None
     d = np.arange(r + GAP + 1, r + WINDOW + 1)
     ring = X[:, np.r_[j0 - d, j0 + d]]
     S = ring @ ring.conj().T / ring.shape[1]
     S += 1e-12 * np.trace(S).real / m * np.eye(m)
     band = np.arange(j0 - r, j0 + r + 1)
-    b = m * n_e / (n_e - m)
-    T, Tr = (np.real(np.sum(np.conj(Z[:, band]) * np.linalg.solve(S, Z[:, band]), axis=0)) for Z in (X, Xr))
-    before = float(np.sum(T - b))
-    return 1.0 - float(np.sum(Tr - b)) / before if before > 0 else float("nan")
+    return tuple(np.real(np.sum(np.conj(Z[:, band]) * np.linalg.solve(S, Z[:, band]), axis=0)) for Z in (X, *more))
 
 
 def hann_gain(offset: float) -> float:
