@@ -61,17 +61,31 @@ oscillator terms stay in ``S0``), while the candidate's own mode keeps its
 peak. Skipped when ``|(I - V V^+) u_c| < APART`` (the shapes do not tell
 them apart).
 
-Shadows (last): a candidate of the shape of a better supported one (MAC
-of the complex shapes over ``SHADOW_MAC``) is tested by
-:func:`identifier.modal.peak_test.peak_lr` on the summed periodogram, the
-rejected partners of pairs not among its neighbours.
+Shadows (last, :func:`shadows`): a candidate of the shape of a better
+supported one (MAC of the complex shapes over ``SHADOW_MAC``), and each
+of two alike candidates (:func:`alike` over ``PAIR_MAC``) within the wider
+of their bands ``h`` whichever is better supported (SSI can fit a narrow
+pole of a mode's shape beside it, better supported than the mode itself:
+tuning seed 400043's at 30.3 rad/s, 6 half-widths from the true 28.5), is
+tested by :func:`identifier.modal.peak_test.peak_lr` on the summed
+periodogram, the rejected partners of pairs not among its neighbours.
+
+Shapes are compared (``SHADOW_MAC``, :func:`alike`) in unit-RMS channels
+(:func:`unit_scaled`, the channels of the periodograms): in physical units
+one channel of a large quantity (an acceleration beside displacements)
+makes unlike shapes score MAC 0.95-1.
 
 Fails (drops a true mode) where two true modes of alike shapes lie within
 ``PAIR_WIDTHS`` half-widths and the record does not hold enough of them
 to need two terms in the summed periodogram, or where a weak true mode
 beside a strong one holds too little of the projected periodogram to
-pass the single test's Bonferroni factor; keeps a spurious pole whose
-neighbour is no better supported or over ``REACH`` standard errors away.
+pass the single test's Bonferroni factor, or where an alike true mode in
+another's band holds too little of the summed periodogram; keeps a
+spurious pole whose neighbour is no better supported or over ``REACH``
+standard errors away, or of a shape over ``PAIR_MAC`` but under
+``SHADOW_MAC`` outside the bands of its alike neighbours (tuning seed
+400123's unit-RMS MAC 0.90 of 49 channels, noisy ones weighing as much as
+clean ones).
 """
 from __future__ import annotations
 
@@ -158,9 +172,8 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
            support: np.ndarray, shapes: np.ndarray, reasons: list[str]) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
-    rejects (module docstring; the shadow test: a candidate whose shape has MAC over
-    ``SHADOW_MAC`` with a better supported one's needs a peak of its own,
-    :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
+    rejects (module docstring; the shadow test: a candidate :func:`shadows`
+    flags needs a peak of its own, :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
     (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
     complex ``shapes`` (m, k), in stationary records (m, n_i) at ``dt`` s."""
     k = omega.size
@@ -168,7 +181,8 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         return
     open_ = [i for i in range(k) if not reasons[i]]
     dropped: set[int] = set()
-    found = pairs(omega, zeta, shapes, open_) if k > 1 else []
+    scaled = unit_scaled(records, shapes)
+    found = pairs(omega, zeta, scaled, open_) if k > 1 else []
     if found:
         n = min(y.shape[1] for y in records)
         T = n * dt
@@ -184,11 +198,9 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                 reasons[lose] = (f"one mode with the mode at {omega[keep]:.6g} rad/s: one oscillator term "
                                  f"explains their band (likelihood ratio of two terms {stat:.3g}, p-value "
                                  f"{pvalue:.2g}; needs under {peak_test.ALPHA:g})")
-    _apart(records, dt, omega, zeta, omega_std, support, shapes, reasons, open_, dropped)
+    _apart(records, dt, omega, zeta, omega_std, support, scaled, reasons, open_, dropped)
     open_ = [i for i in open_ if not reasons[i]]
-    shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
-    support = np.asarray(support)
-    shadowed = (shape_mac > SHADOW_MAC) & (support[None, :] > support[:, None])
+    shadowed = shadows(omega, zeta, np.asarray(support), scaled, min(y.shape[1] for y in records) * dt)
     shadowed[:, sorted(dropped)] = False  # a rejected partner shadows nothing
     doubted = [i for i in open_ if i not in dropped and shadowed[i].any()]
     if doubted:
@@ -198,6 +210,36 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
             if pvalue[i] >= peak_test.ALPHA:
                 reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
                               f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
+
+
+def shadows(omega: np.ndarray, zeta: np.ndarray, support: np.ndarray, scaled: np.ndarray, T: float) -> np.ndarray:
+    """(k, k): whether candidate ``i`` must show a peak of its own because
+    of candidate ``j`` (module docstring, shadows): MAC over ``SHADOW_MAC``
+    and ``j`` better supported, or alike (:func:`alike` over ``PAIR_MAC``)
+    and within the wider of their bands (:func:`identifier.modal.peak_test.half_width`,
+    records of ``T`` s), whichever is better supported; candidates at
+    ``omega`` (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable
+    poles, ``scaled`` (m, k) shapes in unit-RMS channels."""
+    k = omega.size
+    if k < 2:
+        return np.zeros((k, k), dtype=bool)
+    half = peak_test.half_width(omega, zeta, T)
+    near = np.abs(omega[:, None] - omega[None, :]) <= np.maximum(half[:, None], half[None, :])
+    out = ((mac(scaled, scaled) > SHADOW_MAC) & (support[None, :] > support[:, None])
+           | (alike(scaled) > PAIR_MAC) & near)
+    np.fill_diagonal(out, False)
+    return out
+
+
+def unit_scaled(records: list[np.ndarray], shapes: np.ndarray) -> np.ndarray:
+    """``shapes`` (m, k) with each channel divided by its RMS in the records
+    (m, n_i) cut to the shortest (the channels of
+    :func:`identifier.modal.peak_test.summed_periodogram`): shapes compared
+    so that no channel of a large quantity (an acceleration beside
+    displacements) makes unlike shapes alike."""
+    n = min(y.shape[1] for y in records)
+    rms = np.sqrt(np.mean([np.var(y[:, :n], axis=1) for y in records], axis=0))
+    return shapes / np.where(rms > 0, rms, 1.0)[:, None]
 
 
 def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.ndarray:
@@ -215,18 +257,17 @@ def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.
 
 
 def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           support: np.ndarray, shapes: np.ndarray, reasons: list[str], open_: list[int], dropped: set[int]) -> None:
+           support: np.ndarray, scaled: np.ndarray, reasons: list[str], open_: list[int], dropped: set[int]) -> None:
     """The projected test (module docstring): each candidate of ``open_``
     not rejected, with a better supported one of another shape inside its
     band and within ``REACH`` standard errors, tested on the periodogram of
     the channels projected on its shape apart from the shapes of the
-    other-shaped candidates in its band (``dropped``: none of them)."""
+    other-shaped candidates in its band (``dropped``: none of them);
+    ``scaled`` (m, k): the shapes in unit-RMS channels (:func:`unit_scaled`)."""
     n = min(y.shape[1] for y in records)
-    rms = np.sqrt(np.mean([np.var(y[:, :n], axis=1) for y in records], axis=0))
-    scaled = shapes / np.where(rms > 0, rms, 1.0)[:, None]
     half = peak_test.half_width(omega, zeta, n * dt)
     se = np.where(np.isfinite(omega_std), omega_std, np.inf)
-    like = alike(shapes)
+    like = alike(scaled)
     for c in open_:
         if c in dropped or reasons[c] or not np.linalg.norm(scaled[:, c]) > 0:
             continue

@@ -54,7 +54,10 @@ a run add up as independent records):
   more stable poles is kept.
 
 Spectral peak (stationary records), for a mode of the shape of a better
-supported one (MAC above ``peak_pairs.SHADOW_MAC``, the stabilisation's ``mac_min``): the record's spectrum holds a
+supported one (MAC above ``peak_pairs.SHADOW_MAC``, the stabilisation's
+``mac_min``), and for each of two alike modes within one's band (both, the
+better supported too; shapes compared in unit-RMS channels,
+:func:`identifier.modal.peak_pairs.shadows`): the record's spectrum holds a
 peak at the mode, by the likelihood-ratio test of
 :mod:`identifier.modal.peak_test` (p-value under ``peak_test.ALPHA`` over
 the half-power bands the record holds). SSI of high order fits poles to
