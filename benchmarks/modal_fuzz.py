@@ -46,9 +46,13 @@ on 100,800-100,999). Seeds 400,000-400,199 were fresh for that round's
 check, run once on 01f6cf6 (docs/modal-method.md, Held-out check: 2
 invented modes, 95 % intervals cover 95.1 % / 93.4 %, 82.3 % of the
 supported modes found); its two records with an invented mode, 400,043
-and 400,100, were looked at after the run:
+and 400,100, were looked at after the run. Since issue 21's fifth round
+(shapes compared in unit-RMS channels, alike candidates in one band both
+tested: identifier/modal/peak_pairs.py) 400,000-400,199 are tuning seeds
+too (looked at record by record); 500,000-500,199 are reserved fresh for
+the lead's check:
 
-    python benchmarks/modal_fuzz.py --kind unseen --first 400000 --seeds 200
+    python benchmarks/modal_fuzz.py --kind unseen --first 500000 --seeds 200
 """
 from __future__ import annotations
 
