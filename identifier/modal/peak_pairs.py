@@ -70,6 +70,14 @@ tuning seed 400043's at 30.3 rad/s, 6 half-widths from the true 28.5), is
 tested by :func:`identifier.modal.peak_test.peak_lr` on the summed
 periodogram, the rejected partners of pairs not among its neighbours.
 
+Weak candidates (last, :func:`_faint`; :mod:`identifier.modal.support`
+names them: stable at under half the model orders, damping within 1.96
+standard errors of zero) need a peak of their own in the summed
+periodogram or in the channels projected on their own unit shape
+(``|u_c^H Y_k|^2``, which shows a weak mode the summed periodogram hides
+under other shapes' response), each by :func:`identifier.modal.peak_test.peak_lr`:
+a noise pole is kept with probability at most ``2 peak_test.ALPHA``.
+
 Shapes are compared (``SHADOW_MAC``, :func:`alike`) in unit-RMS channels
 (:func:`unit_scaled`, the channels of the periodograms): in physical units
 one channel of a large quantity (an acceleration beside displacements)
@@ -169,13 +177,14 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           support: np.ndarray, shapes: np.ndarray, reasons: list[str]) -> None:
+           support: np.ndarray, shapes: np.ndarray, reasons: list[str], weak: np.ndarray | None = None) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
     flags needs a peak of its own, :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
     (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
-    complex ``shapes`` (m, k), in stationary records (m, n_i) at ``dt`` s."""
+    complex ``shapes`` (m, k), in stationary records (m, n_i) at ``dt`` s;
+    ``weak`` (k,): candidates that need a peak too (:func:`_faint`)."""
     k = omega.size
     if k == 0:
         return
@@ -210,6 +219,28 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
             if pvalue[i] >= peak_test.ALPHA:
                 reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
                               f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
+    if weak is not None:
+        _faint(records, dt, omega, zeta, scaled, reasons, [i for i in open_ if not reasons[i] and weak[i]],
+               sorted(dropped))
+
+
+def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, scaled: np.ndarray,
+           reasons: list[str], faint: list[int], dropped: list[int]) -> None:
+    """The weak-candidate test (module docstring): each candidate of
+    ``faint`` needs a peak of its own in the summed periodogram or in the
+    channels projected on its own shape (``scaled`` (m, k), unit-RMS
+    channels), ``dropped`` candidates not among its neighbours."""
+    if not faint:
+        return
+    stat, pvalue = peak_test.peak_lr(records, dt, omega, zeta, faint, excluded={i: dropped for i in faint})
+    for i in (i for i in faint if pvalue[i] >= peak_test.ALPHA):
+        u = scaled[:, i] / max(np.linalg.norm(scaled[:, i]), 1e-300)
+        own, p_own = peak_test.peak_lr(records, dt, omega, zeta, [i], excluded={i: dropped},
+                                       summed=projected_periodogram(records, u))
+        if p_own[i] >= peak_test.ALPHA:
+            reasons[i] = (f"weak (few model orders, damping not told from 0) and no spectral peak of its own "
+                          f"(likelihood ratio {stat[i]:.3g} summed, {own[i]:.3g} in its shape; p-values "
+                          f"{pvalue[i]:.2g}, {p_own[i]:.2g}; needs under {peak_test.ALPHA:g})")
 
 
 def shadows(omega: np.ndarray, zeta: np.ndarray, support: np.ndarray, scaled: np.ndarray, T: float) -> np.ndarray:

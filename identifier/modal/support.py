@@ -92,7 +92,13 @@ has ``omega_std / (zeta omega) ~ 1 / sqrt(N)`` (the random error) plus
 ``1 / N`` (the short-record bias), under ``BANDWIDTH`` from about 5 decay
 times on, so a heavily damped true mode is as well pinned down within its
 bandwidth as a lightly damped one though far less in absolute terms; a
-noise pole scatters over more than its own bandwidth.
+noise pole scatters over more than its own bandwidth. A precise one whose
+damping the record does not tell from zero (``|zeta| < UNDAMPED
+zeta_std``, the 95 % interval) must show a spectral peak of its own
+(stationary records; :mod:`identifier.modal.peak_pairs`, weak
+candidates): SSI fits lightly damped poles to broadband noise above the
+highest mode (an acceleration channel's force feed-through), precise to
+under ``LOOSE`` but without a peak.
 
 Short-record bias. In a stationary random response of ``T`` seconds the
 covariance estimates ``R_l`` of a mode of decay rate ``sigma = zeta omega``
@@ -139,6 +145,7 @@ ZETA_FLOOR = 1e-4  # damping ratio at least this when counting decay times
 MIN_STABLE = 0.5  # share of the model orders below which a mode must be precise ...
 LOOSE = 0.005  # ... omega_std < LOOSE omega
 BANDWIDTH = 0.5  # ... or omega_std < BANDWIDTH zeta omega (a share of its half-power bandwidth)
+UNDAMPED = 1.96  # ... and a mode among them whose damping is within this many standard errors of 0 needs a peak
 MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
@@ -216,7 +223,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), shapes,
-                          reasons)
+                          reasons, (np.asarray(stable) < MIN_STABLE) & (np.abs(zeta) < UNDAMPED * zeta_std))
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC
