@@ -306,11 +306,12 @@ def identify(traces: Sequence[Trace], model: Structure, estimator: str = "bias-c
                                       field="estimator")
         try:
             est, undetermined = unmeasured_data.solve_traces(traces, model, lambda t, c: _sigma(t, c, estimated))
-        except IdentificationError as err:
+        except (IdentificationError, np.linalg.LinAlgError) as err:  # numpy >= 2.4 raises on NaN in solve
             trace = next(t for t in traces if missing_message(t, model))
+            why = err if isinstance(err, IdentificationError) else f"the fit failed numerically ({err})"
             raise IdentificationError(f"{trace.path.name}: {missing_message(trace, model)}; least squares with "
                                       f"unmeasured DOF (frequency domain, output error at the measured DOF) "
-                                      f"refused: {err}", field=err.field) from None
+                                      f"refused: {why}", field=getattr(err, "field", "channels")) from None
         motion, how, extra = None, ["frequency-domain, unmeasured DOF condensed"], {}
     elif chosen_domain == "frequency":
         est = frequency_data.solve_traces(traces, model, lambda t, c: _sigma(t, c, estimated), weighting, rcond,
