@@ -296,6 +296,9 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     ml = refine_poles(traces, records, dt, omega, zeta, omega_se, zeta_se, refined,
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
+    shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
+    shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS
+    refined, source = np.append(refined, False)[ml.source], np.append(source, -1)[ml.source]
     shapes, shape_se = free_decay_shapes(traces, records, dt, omega, zeta, ml.applied, shapes,
                                          shape_se if replicates else None)  # refined modes: LS shapes
     periodic.on_modes(found, omega, zeta)

@@ -61,10 +61,17 @@ bandwidth that neither SSI nor the search resolved, whose signal the fit
 would bend the pole to) by the score test of
 :func:`identifier.modal.close_pairs.pair.score_statistics` (``chi^2(2M -
 2)``, p-value below ``MISFIT`` Bonferroni over the modes; one channel of
-one record has no such test). With ``uncertainty="off"`` SSI states no
-errors: the refined values are reported (the same as the default run's
-wherever that run's move test passes) without errors (NaN), and only the
-bounds limit a move.
+one record has no such test). A move over ``MOVE`` is accepted when a
+term found in the residual explains it (``_partner``): within ``BAND``
+``zeta omega`` of SSI's pole, on the other side of it from the refined
+pole, no other reported mode nearer. SSI's pole was then one fitted over
+two modes (its frequency between theirs); both refined poles are reported
+with their ML standard errors, the second as a new mode (``source`` -1, its
+shape by least squares). Its evidence is the residual search's
+(``ml_residual.ALPHA`` 0.01, Bonferroni over bins and lengths). With
+``uncertainty="off"`` SSI states no errors: the refined values are
+reported (the same as the default run's wherever that run's move test
+passes) without errors (NaN), and only the bounds limit a move (no split).
 
 Assumptions and failures: a linear structure in free response from the
 record's start (no force after it), white noise on every channel, every
@@ -99,19 +106,23 @@ BUDGET = 4_000_000  # samples x channels fitted at most
 MAX_NUISANCE_ZETA = 0.5  # rejected candidates more damped than this are no nuisance terms
 MISFIT = 1e-3  # a refined pole whose residual holds a t e^(lambda t) term at this p-value keeps SSI's answer
 ROUNDS = 3  # fits at most: a refused pole is held at SSI's and the others fitted again
+BAND = 2.0  # a term found in the residual within this many zeta omega of a moved SSI pole explains the move
 
 
 @dataclass(frozen=True)
 class PoleRefinement:
-    """The modes after the refinement (the input's order): ``omega`` rad/s,
-    ``zeta``, their standard errors, ``applied`` (k,) True where they come
-    from the fit, and ``details`` (``details["ml_refinement"]`` of the results)."""
+    """The modes after the refinement (k' >= k: the input's order, a split
+    merger's two by ``omega``): ``omega`` rad/s, ``zeta``, their standard
+    errors, ``applied`` (k',) True where they come from the fit, ``source``
+    (k',) the input mode each comes from (-1: the second mode of a split
+    merger), and ``details`` (``details["ml_refinement"]`` of the results)."""
 
     omega: np.ndarray
     zeta: np.ndarray
     omega_std: np.ndarray
     zeta_std: np.ndarray
     applied: np.ndarray
+    source: np.ndarray
     details: dict[str, Any] = field(default_factory=dict)
 
 
@@ -136,7 +147,7 @@ def free_starts(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> list[
 
 
 def _unchanged(omega, zeta, omega_std, zeta_std, reason: str, ssi: dict | None = None) -> PoleRefinement:
-    return PoleRefinement(omega, zeta, omega_std, zeta_std, np.zeros(omega.size, bool),
+    return PoleRefinement(omega, zeta, omega_std, zeta_std, np.zeros(omega.size, bool), np.arange(omega.size),
                           {"applied": False, "reason": reason, "modes": [False] * omega.size,
                            "mode_reasons": [reason] * omega.size} | ({"ssi": ssi} if ssi else {}))
 
@@ -258,7 +269,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
                for h, ok in zip(held, modelled)]
     out_w, out_z, out_sw, out_sz = omega.copy(), zeta.copy(), omega_std.copy(), zeta_std.copy()
     applied = np.zeros(k, bool)
-    cut, added = n, 0
+    cut, added, split = n, 0, {}
     with one_blas_thread():
         for round_ in range(ROUNDS):
             active = todo & ~refused
@@ -285,9 +296,11 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
                 for g, t in enumerate(data.t):
                     data.s[g] = noise_levels(t, data.y[g], basis(t, np.concatenate([free, fixed])))
             idx = np.flatnonzero(active)
-            w, z, se_w, se_z = (v[:p] for v in omega_zeta(fitted, cov))  # the nuisance poles last
+            every = omega_zeta(fitted, cov)  # the nuisance poles last, those found in the residual at the end
+            w, z, se_w, se_z = (v[:p] for v in every)
             misfit = misfit_pvalues(ts, zs, np.concatenate([fitted, fixed]), p)
             good = np.zeros(p, bool)
+            partner = np.full(p, -1)
             for a, i in enumerate(idx):
                 moved = max(abs(w[a] - omega[i]) / omega_std[i], abs(z[a] - zeta[i]) / zeta_std[i]) \
                     if trusted[i] else 0.0  # no SSI errors (uncertainty="off"): no move to bound
@@ -297,6 +310,11 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
                     reasons[i] = f"the residual holds a t e^(lambda t) term at the pole (p = {misfit[a]:.2g})"
                 elif not (np.isfinite(se_w[a]) and np.isfinite(se_z[a]) and se_w[a] > 0 and se_z[a] > 0):
                     reasons[i] = "no finite refined standard error"
+                elif moved > MOVE and (j := _partner(every, fitted.size - added, w[a], i, omega, zeta,
+                                                     partner)) >= 0:
+                    reasons[i] = (f"refined; moved {moved:.3g} SSI standard errors, the SSI pole a merger with "
+                                  f"the term found in the residual at {every[0][j]:.4g} rad/s (reported)")
+                    good[a], partner[a] = True, j
                 elif moved > MOVE:
                     reasons[i] = f"moved {moved:.3g} SSI standard errors (over {MOVE:g})"
                 else:
@@ -309,6 +327,8 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
                 out_sw[use] = np.where(errors, se_w[good], np.nan)
                 out_sz[use] = np.where(errors, se_z[good], np.nan)
                 applied[use] = True
+                split = {int(idx[a]): tuple(float(v[partner[a]]) for v in every)
+                         for a in np.flatnonzero(good & (partner >= 0))}
                 break
             refused[idx[~good]] = True
     for i in np.flatnonzero(todo & ~applied):
@@ -316,5 +336,35 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
     details = {"applied": bool(applied.any()), "reason": "" if applied.any() else "every mode refused",
                "modes": applied.tolist(), "mode_reasons": reasons, "samples": int(min(cut, n)),
                "nuisance": sorted(float(abs(p)) for p in nuisance), "found_in_residual": int(added),
-               "ssi": ssi}
-    return PoleRefinement(out_w, out_z, out_sw, out_sz, applied, details)
+               "ssi": ssi, "split": {str(i): list(v) for i, v in split.items()}}
+    rows = []  # per reported mode: source, omega, zeta, their errors, applied; a split merger's two by omega
+    for i in range(k):
+        pair = [(i, out_w[i], out_z[i], out_sw[i], out_sz[i], applied[i])] + \
+            ([(-1, *split[i], True)] if i in split else [])
+        rows += sorted(pair, key=lambda row: row[1])
+    src, w, z, sw, sz, done = (np.array(c) for c in zip(*rows))
+    return PoleRefinement(w.astype(float), z.astype(float), sw.astype(float), sz.astype(float), done.astype(bool),
+                          src.astype(int), details)
+
+
+def _partner(every: tuple[np.ndarray, ...], first: int, moved_to: float, i: int, omega: np.ndarray,
+             zeta: np.ndarray, taken: np.ndarray) -> int:
+    """The index (in the fit's poles ``every`` = omega, zeta and their
+    standard errors) of the term found in the residual (indices ``first``
+    on) that explains the move of mode ``i``'s pole from SSI's ``omega[i]``
+    to ``moved_to`` rad/s: SSI's pole one fitted over two modes. The term
+    is within ``BAND`` ``zeta omega`` of SSI's pole, on its other side, no
+    other reported mode nearer, with finite errors, damping in (0, 1) and
+    not ``taken`` by another mode; -1 if none. Its evidence is the
+    residual search's (:mod:`.ml_residual`, level ``ALPHA``)."""
+    w, z, sw, sz = every
+    best, gap = -1, np.inf
+    for j in range(first, w.size):
+        near = abs(w[j] - omega[i])
+        if (j in taken or not (np.isfinite(sw[j]) and np.isfinite(sz[j]) and sw[j] > 0 and sz[j] > 0)
+                or not 0 < z[j] < 1 or near > BAND * zeta[i] * omega[i] or near >= gap
+                or (w[j] - omega[i]) * (moved_to - omega[i]) >= 0
+                or np.argmin(np.abs(omega - w[j])) != i):
+            continue
+        best, gap = j, near
+    return best
