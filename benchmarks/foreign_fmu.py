@@ -79,7 +79,12 @@ case, two processes of 8 seeds, 2100-2830 s each; pooled from their
                      stated/achieved m 0.99, c 0.92, k 0.94 (+-0.07); mean z m -0.02, c +0.13, k +0.04 (+-0.10)
 
 (the impulse cases share their noise seeds, so their columns are not
-independent). The stated standard errors with the 1 mm offset (noise 14
+independent). Re-run on the code of 51e9145 (27 Nov, quiet machine): the
+impulse cases, seeds 205-224, the same to every digit printed; random-sub,
+seeds 225-240 (two processes of 8 seeds, 581-583 s each): io omega -0.0018
+[-0.022, +0.020], io zeta -0.081 [-0.38, +0.48], io coverage 146/158 =
+0.924; m -0.024, c -0.071, k -0.032, coverage 228/240 = 0.950; output-only
+SSI found 79/80, omega -0.24 [-1.2, +1.2], zeta -3.6. The stated standard errors with the 1 mm offset (noise 14
 times that without it) match the achieved spread within its sampling error:
 the earlier reading "0.25 % against about 0.22 %" (seeds 200-204, 25 runs,
 sampling error 14 %) was noise. Exact zero-order-hold Monte Carlo of the
