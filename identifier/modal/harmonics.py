@@ -214,9 +214,12 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
             rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
             strong = excess >= conc(int(np.ceil(max(h, 2.0))))
+            broad = not ((strong and not rises) or h < H_MIN)
+            if broad and not strong and not _line_near(P, bg, over, w, h, bin_w):
+                continue  # no line there that the coherent test could take: a mode
             share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
             bare = False  # a broad pole whose band keeps no peak once the sinusoid is out
-            if not ((strong and not rises) or h < H_MIN):
+            if broad:
                 if not (share >= share_bound(2 * np.pi * h) and peak_left(y, dt, P, w, float(zeta_abs[i])) < PEAK_Z):
                     continue
                 rises, bare = False, True
@@ -252,6 +255,18 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             ln.test = "kurtosis" if ln.z >= LIKELY else "spectral"
             found.append(ln)
     return drop, sorted(found, key=lambda x: x.omega)
+
+
+def _line_near(P: np.ndarray, bg: np.ndarray, over: np.ndarray, omega: float, h: float, bin_w: float) -> bool:
+    """Whether the band of :func:`coherent_share` around a pole at ``omega`` rad/s (half-width ``h``
+    lines) holds a line the ``coherent`` test could take: ``P`` over ``LINE`` times ``bg`` less the
+    loss of a line 0.75 lines off (the most the share's fit corrects), or the spatial test's
+    ``over`` at 1 or more; False where that band runs off the spectrum (no share)."""
+    j0, r = int(round(omega / bin_w)), int(np.ceil(max(2 * h, 3.0)))
+    if j0 - r < 1 or j0 + r >= P.size - 1:
+        return False
+    band = slice(j0 - r, j0 + r + 1)
+    return bool(np.any(P[band] >= LINE * hann_gain(0.75) * np.maximum(bg[band], 1e-300)) or np.any(over[band] >= 1))
 
 
 def _beside(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: float, zeta: float,
