@@ -109,24 +109,27 @@ SSI mode (about one such peak in ten), and a mode of under ``STILL`` decay times
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .harmonics_lines import (BLOCKS, CONC, DOUBTFUL, H_MIN, LIKELY, LINE, MAX_LINES, RISE, SKIRT, STILL,  # noqa: F401
-                              SURE, WINDOW, Line, _spectrum, background, band_lines, detect, fit, kurtosis, measure,
-                              spatial_excess, subtract)
+                              SURE, WINDOW, Line, Spectra, band_lines, detect, fit, kurtosis, measure, spectra,
+                              subtract)
 from .harmonics_poles import PEAK_Z, _pole_line, coherent_share, conc, hann_gain, peak_left, share_bound  # noqa: F401
 from .support import ZETA_FLOOR
 
 
 @dataclass
 class Screened:
-    """Records (per trace, (m, n)) less the sure harmonics ``lines``; SSI's modes decide the ``doubtful``."""
+    """Records (per trace, (m, n)) less the sure harmonics ``lines``; SSI's modes decide the
+    ``doubtful``. ``spectra``: per record, its :func:`spectra` when :func:`screen` left it as it was
+    (else None; empty: none known)."""
 
     records: list[np.ndarray]
     lines: list[Line]
     doubtful: list[Line]
+    spectra: list[Spectra | None] = field(default_factory=list)
 
 
 def _merge(found: list[Line], tol: float) -> list[Line]:
@@ -144,16 +147,18 @@ def screen(records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> 
     before (a first pass's :func:`confirm`), each refitted per record (its phase is the record's),
     subtracted and listed as found, in place of a detected line within two lines of it."""
     tol = 4 * np.pi / (min(y.shape[1] for y in records) * dt)
-    cleaned, sure, doubtful = [], [], []
+    cleaned, sure, doubtful, kept = [], [], [], []
     for y in records:
-        found = [ln for ln in detect(y, dt) if ln.kurtosis < DOUBTFUL or ln.evidence >= 1]
+        known_here = spectra(y) if y.shape[1] >= 4 * WINDOW else None
+        found = [ln for ln in detect(y, dt, known=known_here) if ln.kurtosis < DOUBTFUL or ln.evidence >= 1]
         here = [ln for ln in found if ln.z >= SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
         t = np.arange(y.shape[1]) * dt
         again = [replace(k, amplitude=fit(y, k.omega, t)) for k in known]
         sure += here
         doubtful += [ln for ln in found if ln.z < SURE and all(abs(ln.omega - k.omega) > tol for k in known)]
         cleaned.append(subtract(y, here + again, dt) if here or again else y)
-    return Screened(cleaned, _merge(sure, tol) + list(known), _merge(doubtful, tol))
+        kept.append(None if here or again else known_here)
+    return Screened(cleaned, _merge(sure, tol) + list(known), _merge(doubtful, tol), kept)
 
 
 def unsubtracted(found: list[Line], screened: Screened) -> list[Line]:
@@ -169,7 +174,8 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
     the standard deviation of their frequencies, rad/s) are harmonics (k,),
     and every harmonic found: the sure lines, then the module docstring's
     rules in its order."""
-    y = max(screened.records, key=lambda r: r.shape[1])
+    longest = max(range(len(screened.records)), key=lambda i: screened.records[i].shape[1])
+    y = screened.records[longest]
     n = y.shape[1]
     length = n * dt
     total = sum(r.shape[1] for r in screened.records) * dt
@@ -207,9 +213,8 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
                               float(zeta[i])))
         elif n >= 4 * WINDOW:
             if P is None:
-                X = _spectrum(y)
-                P = np.sum(np.abs(X)**2, axis=0)
-                bg, over = background(P), spatial_excess(X)
+                ready = screened.spectra[longest] if longest < len(screened.spectra) else None
+                X, P, bg, over = spectra(y) if ready is None else ready
             w, h = float(omega[i]), float(zeta_abs[i] * omega[i] / bin_w)
             j, excess, rise = _pole_line(P, w, float(zeta_abs[i]), bin_w)
             rises = bool(np.isfinite(rise) and rise >= RISE)  # a broad mode with a line on it
@@ -217,15 +222,15 @@ def confirm(screened: Screened, dt: float, omega: np.ndarray, zeta_abs: np.ndarr
             broad = not ((strong and not rises) or h < H_MIN)
             if broad and not strong and not _line_near(P, bg, over, w, h, bin_w):
                 continue  # no line there that the coherent test could take: a mode
-            share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]))
+            share, ratio, k = coherent_share(y, dt, P, bg, w, float(zeta_abs[i]), X)
             bare = False  # a broad pole whose band keeps no peak once the sinusoid is out
             if broad:
-                if not (share >= share_bound(2 * np.pi * h) and peak_left(y, dt, P, w, float(zeta_abs[i])) < PEAK_Z):
+                if not (share >= share_bound(2 * np.pi * h) and peak_left(y, dt, P, w, float(zeta_abs[i]), X) < PEAK_Z):
                     continue
                 rises, bare = False, True
             line_like = strong and not rises
             if h < H_MIN and not share >= share_bound(2 * np.pi * h):  # a weak line's poles stray beside it
-                share, ratio, k = _beside(y, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)
+                share, ratio, k = _beside(y, X, dt, P, bg, w, float(zeta_abs[i]), 3 * float(scatter[i]) / bin_w)
             sinusoid = share >= share_bound(2 * np.pi * h)  # NaN: no peak
             test = "line" if line_like and sinusoid else ""
             if not test and (h < H_MIN or bare) and (ratio >= LINE or (k >= 0 and over[k] >= 1)) and sinusoid:
@@ -269,7 +274,7 @@ def _line_near(P: np.ndarray, bg: np.ndarray, over: np.ndarray, omega: float, h:
     return bool(np.any(P[band] >= LINE * hann_gain(0.75) * np.maximum(bg[band], 1e-300)) or np.any(over[band] >= 1))
 
 
-def _beside(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: float, zeta: float,
+def _beside(y: np.ndarray, X: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: float, zeta: float,
             reach: float) -> tuple[float, float, int]:
     """:func:`coherent_share` at the strongest line (over ``LINE`` times ``bg``, less the loss of a line
     half a line off) within ``reach``
@@ -284,7 +289,7 @@ def _beside(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: floa
     j = int(band[np.argmax(P[band] / np.maximum(bg[band], 1e-300))])
     if P[j] < LINE * hann_gain(0.5) * bg[j]:  # a line between two lines puts 0.72 of its power in each
         return float("nan"), 0.0, -1
-    return coherent_share(y, dt, P, bg, j * bin_w, zeta * omega / (j * bin_w))
+    return coherent_share(y, dt, P, bg, j * bin_w, zeta * omega / (j * bin_w), X)
 
 
 def on_modes(found: list[Line], omega: np.ndarray, zeta: np.ndarray) -> None:

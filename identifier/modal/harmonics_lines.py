@@ -9,6 +9,7 @@ channels' units (``a cos(omega t) + b sin(omega t)`` is ``a - i b``).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
@@ -181,24 +182,40 @@ def background(P: np.ndarray) -> np.ndarray:
     return median_filter(P, footprint=ring, mode="nearest")
 
 
-def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES) -> list[Line]:
+class Spectra(NamedTuple):
+    """What :func:`detect` reads of a record: its transforms ``X`` (m, lines) (:func:`_spectrum`),
+    their summed periodogram ``P``, its :func:`background` ``bg`` and :func:`spatial_excess` ``over``
+    (lines,)."""
+
+    X: np.ndarray
+    P: np.ndarray
+    bg: np.ndarray
+    over: np.ndarray
+
+
+def spectra(y: np.ndarray) -> Spectra:
+    """:class:`Spectra` of a record ``y`` (m, n); computed once and handed on, since the
+    :func:`spatial_excess` of an 8 h record costs about 1.5 CPU seconds."""
+    X = _spectrum(y)
+    P = np.sum(np.abs(X)**2, axis=0)
+    return Spectra(X, P, background(P), spatial_excess(X))
+
+
+def detect(y: np.ndarray, dt: float, max_lines: int = MAX_LINES, known: Spectra | None = None) -> list[Line]:
     """The lines of a stationary record ``y`` (m, n) sampled every ``dt`` s (module docstring),
     strongest first, then those that stand out only in every sensor's lines
     (local maxima of :func:`spatial_excess` over 7 lines, at 1 or more, more than 3 lines from a line
     of the first kind), each with its ``evidence``; none when the record is under ``4 WINDOW``
-    samples."""
+    samples. ``known``: :func:`spectra` of ``y`` when computed already."""
     m, n = y.shape
     if n < 4 * WINDOW:
         return []
-    X = _spectrum(y)
-    P = np.sum(np.abs(X)**2, axis=0)
-    bg = background(P)
+    X, P, bg, over = spectra(y) if known is None else known
     ratio = P / np.maximum(bg, 1e-300)
     peak = P >= maximum_filter1d(P, size=7, mode="nearest")
     k = np.flatnonzero(peak & (ratio >= LINE))
     k = k[(k >= 3) & (k <= P.size - 4)]
     k = k[np.argsort(-ratio[k])][:max_lines]
-    over = spatial_excess(X)
     tops = over >= maximum_filter1d(over, size=7, mode="nearest")
     kw = np.flatnonzero(tops & (over >= 1))
     kw = kw[(kw >= 3) & (kw <= P.size - 4) & np.all(np.abs(kw[:, None] - k[None, :]) > 3, axis=1)]

@@ -62,7 +62,7 @@ def _pole_line(P: np.ndarray, omega: float, zeta: float, bin_w: float) -> tuple[
 
 
 def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omega: float,
-                   zeta: float) -> tuple[float, float, int]:
+                   zeta: float, X: np.ndarray | None = None) -> tuple[float, float, int]:
     """The share of a narrow pole's spectral peak that one sinusoid holds.
 
     Over the band ``B`` of lines ``|j - j0| <= r``, ``r = ceil(max(2 h,
@@ -79,7 +79,8 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
     probability about ``x^sqrt(D)`` in the tail (:func:`share_bound`). Returns (share, the band's strongest line over
     ``bg`` there, corrected for where the fitted frequency falls between lines (:func:`hann_gain`): a
     sinusoid half a line off puts 0.72 of its power in each of two lines; its index); NaN share when
-    the band runs off the spectrum or holds no excess."""
+    the band runs off the spectrum or holds no excess. ``X``: ``_spectrum(y)`` when computed already
+    (the same numbers: the transforms of the channels over their own RMS)."""
     n = y.shape[1]
     bin_w = 2 * np.pi / (n * dt)
     h = zeta * omega / bin_w
@@ -88,7 +89,7 @@ def coherent_share(y: np.ndarray, dt: float, P: np.ndarray, bg: np.ndarray, omeg
         return float("nan"), 0.0, -1
     band = np.arange(j0 - r, j0 + r + 1)
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
-    X = _spectrum(y, rms)
+    X = _spectrum(y, rms) if X is None else X
     T = _whitened_band(X, j0, r)
     j = int(band[np.argmax(P[band] if T is None else T[0])])
     w, rest = _take_out(y, dt, j)
@@ -118,7 +119,8 @@ def _take_out(y: np.ndarray, dt: float, j: int) -> tuple[float, np.ndarray]:
     return w, y - np.outer(a.real, np.cos(w * t)) + np.outer(a.imag, np.sin(w * t))
 
 
-def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float) -> float:
+def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float,
+              X: np.ndarray | None = None) -> float:
     """The peak a pole's band keeps once the sinusoid at its strongest line is taken out, in
     standard errors of a random background: over the band ``B`` of :func:`coherent_share` less
     the lines within ``GAP`` of the strongest whitened line (what a fit leaves of a strong line stays there;
@@ -135,13 +137,13 @@ def peak_left(y: np.ndarray, dt: float, P: np.ndarray, omega: float, zeta: float
     a flat background leaves about 0 (a little under: the fit takes the random part at its
     frequency too), over ``PEAK_Z`` with probability about ``SHARE_P`` (Monte Carlo,
     tests/test_modal_harmonics_poles.py). NaN with one channel, ``N_e < 2 m`` or a band off the
-    spectrum (as :func:`_whitened_share`)."""
+    spectrum (as :func:`_whitened_share`). ``X``: as in :func:`coherent_share`."""
     n = y.shape[1]
     bin_w = 2 * np.pi / (n * dt)
     h = zeta * omega / bin_w
     j0, r = int(round(omega / bin_w)), int(np.ceil(max(2 * h, 3.0)))
     rms = np.sqrt(np.mean(y**2, axis=1, keepdims=True))
-    X = _spectrum(y, rms)
+    X = _spectrum(y, rms) if X is None else X
     white = _whitened_band(X, j0, r)
     if white is None:
         return float("nan")
