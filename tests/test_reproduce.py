@@ -83,6 +83,9 @@ def test_report_and_figures(reproduced):
     assert "| ch3-m8 normalized RMS | 0.0183" in report
     assert "## Beyond the dissertation" in report
     assert "(ch5-damped/results/modal-random-stabilisation-00.png)" in report
+    # the first stabilisation diagram of each results file, the one the report shows, and no other
+    assert sorted(p.name for p in (out / "ch5-damped" / "results").glob("*.png")) == [
+        "modal-impulse-stabilisation-00.png", "modal-random-stabilisation-00.png"]
     for png in ("ch3-parameters-m8.png", "ch3-coverage.png", "ch4-rms-history.png", "ch5-beam-modes.png",
                 "ch5-membrane-modes-joint.png", "ch5-beam-modes-modal.png"):
         assert (out / png).stat().st_size > 10_000

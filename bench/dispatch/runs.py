@@ -228,13 +228,15 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
                     options: Mapping[str, Any] | None = None,
                     progress: Callable[[int, int], None] | None = None,
                     jobs: int | None = None, prior: str | Path | None = None,
-                    repetitions: int | None = None) -> tuple[dict[str, Any], Path]:
+                    repetitions: int | None = None, diagrams: int | None = None) -> tuple[dict[str, Any], Path]:
     """Identify every run of a campaign folder with one method and write the
     results file; returns the result document and its path. ``progress``
     receives (runs done, runs in all) after every run; ``jobs``: processes
     (default: one per available core; 1: in this process); ``prior``: the
     starting model (:func:`resolve_prior`); ``repetitions``: only the runs of
-    the first that many repetitions (by repetition number)."""
+    the first that many repetitions (by repetition number); ``diagrams``: the
+    modal method's stabilisation diagrams of the first that many runs only
+    (default: of every run)."""
     folder = Path(campaign_dir)
     if not folder.is_dir():
         raise IdentificationError(f"no such campaign folder {folder}", field="CAMPAIGN_DIR")
@@ -257,5 +259,5 @@ def identify_folder(campaign_dir: str | Path, method_name: str, model: str | Non
     if origin:
         document["prior"] = origin
     path = write_results(result_path(folder, chosen.name, tag), document)
-    write_diagrams(document, path)
+    write_diagrams(document, path, diagrams)
     return document, path

@@ -115,7 +115,8 @@ def run_case(name: str, out: Path, repetitions: int | None, jobs: int | None, ke
         begun = time.perf_counter()
         identify_folder(folder, step.method, groups=step.groups or None, tests=step.tests or None,
                         joint=step.joint, tag=step.tag, options=step.options,
-                        jobs=None if jobs is None else max(1, jobs), repetitions=step.repetitions)
+                        jobs=None if jobs is None else max(1, jobs), repetitions=step.repetitions,
+                        diagrams=1)  # the report shows each results file's first stabilisation diagram
         line(f"identified {step.stem} ({time.perf_counter() - begun:.1f} s): {step.variant}")
     scores = score_campaign(folder)
     case_figures(out, name)
