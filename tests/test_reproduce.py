@@ -1,6 +1,7 @@
 """The main job end to end with few repetitions: keys, numbers and report."""
 import json
 import os
+import re
 
 import pytest
 
@@ -121,6 +122,7 @@ def test_keep_traces_keeps_them(tmp_path):
     assert sorted(p.name for p in (tmp_path / "ch5-membrane" / "traces").glob("*.h5")) == [
         "initial-velocity-node6.h5", "initial-velocity.h5"]
     assert all(line.startswith("[6/7] ch5-membrane ") and " s: " in line for line in lines)
+    assert re.search(r" s: done, \d+\.\d CPU s$", lines[-1]), lines[-1]  # its CPU time, apart from the load
     run_case("ch5-membrane", tmp_path, 3, 1, False, lines.append)  # complete, traces kept: not run again
     assert "complete from an earlier run" in lines[-1]
     (tmp_path / "ch5-membrane" / DONE).unlink()
