@@ -74,17 +74,21 @@ of the supported modes found; the nine records not looked at):
 
     python benchmarks/modal_fuzz.py --kind unseen --first 700000 --seeds 1000
 
-Since issue 21's eighth round (a candidate whose damping is not told from
-zero needs a spectral peak at half the orders or more too, tested at the
-upper end of its damping interval as well: identifier/modal/peak_pairs.py)
-700,000-700,999 are tuning seeds: its records with an invented mode
-(700,070, 700,485, 700,668, 700,723, 700,748, 700,754, 700,903) were
-looked at one by one, with 600,182, 600,232, 600,260, 600,337, 600,469,
-600,503, 600,579 and 600,722, and every reported mode of 700,000-700,199,
-700,600-700,999, 600,200-600,399, 300,000-300,199 and 100,800-100,999
-with its p-values (700,607, 700,643, 700,664, 300,032, 100,903 looked at).
-Seeds 800,000-800,999 are reserved fresh for the lead's check of the
-final code:
+Since issue 21's eighth round 700,000-700,999 are tuning seeds. Random
+responses (a candidate whose damping is not told from zero needs a
+spectral peak at half the orders or more too, tested at the upper end of
+its damping interval as well: identifier/modal/peak_pairs.py): its
+records with an invented mode (700,070, 700,485, 700,668, 700,723,
+700,748, 700,754, 700,903) were looked at one by one, with 600,182,
+600,232, 600,260, 600,337, 600,469, 600,503, 600,579 and 600,722, and
+every reported mode of 700,000-700,199, 700,600-700,999, 600,200-600,399,
+300,000-300,199 and 100,800-100,999 with its p-values (700,607, 700,643,
+700,664, 300,032, 100,903 looked at). Free decays (a free decay's modes
+tested against the sensor noise again at their refined poles:
+identifier/modal/decay_snr.py, ``retest``): 700,143 and 700,318 looked at
+record by record, as were the older 400,100, 100,909 and 100,923. Seeds
+800,000-800,999 are reserved fresh for the lead's check of the final
+code:
 
     python benchmarks/modal_fuzz.py --kind unseen --first 800000 --seeds 1000
 """

@@ -43,7 +43,7 @@ def test_without_the_coherence_test_noise_poles_are_reported(quiet, monkeypatch)
     these noise poles of a free decay too): the noise poles pass
     stabilisation and the jackknife and come out as modes."""
     monkeypatch.setattr(modal, "COHERENCE", 0.0)
-    monkeypatch.setattr(modal.decay_snr, "screen", lambda records, dt, omega, zeta, verdict, others: verdict)
+    monkeypatch.setattr(modal.decay_snr, "screen", lambda records, dt, omega, zeta, verdict, others, **_: verdict)
     result = modal.identify([modal_fuzz.trace(quiet[1], DT)])
     assert len(result.omega) > 5
     assert min(result.details["coherence"]) < 0.3

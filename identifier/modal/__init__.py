@@ -295,6 +295,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     shape_se = carried(shape_se, source, refined)  # a shape from the close-pair fit: NaN
     ml = refine_poles(traces, records, dt, omega, zeta, omega_se, zeta_se, refined,
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
+    ml, gone = decay_snr.retest(records, dt, ml, rejected) if decay else (ml, [])  # refined poles vs noise
+    rejected += gone
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
     shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS
