@@ -13,6 +13,8 @@ is within its half-power band, but their damped exponentials correlate at
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from scipy.stats import chi2
 
 from structbench.identifier.modal.decay_snr import correlation, retest, screen, statistics
 from structbench.identifier.modal.refine import PoleRefinement
@@ -88,3 +90,37 @@ def test_a_weak_true_mode_on_the_flank_stays_and_nothing_changes_without_refinem
     unrefined = PoleRefinement(ml.omega, ml.zeta, ml.omega_std, ml.zeta_std, np.zeros(3, bool), np.arange(3),
                                {"applied": False})
     assert retest([_record()], DT, unrefined, [])[0] is unrefined
+
+
+def _pair_record(weak: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three channels (3, 27000 at 0.028 s): 2.5145 rad/s (``zeta`` 0.0011),
+    11.27 (0.0062) and ``weak`` times a mode at 11.39 (0.0165), whose damped
+    exponentials correlate with 11.27's at 0.81; and the three poles."""
+    dt, n = 0.028, 27000
+    t = np.arange(n) * dt
+    w, z = np.array([2.5145, 11.27, 11.39]), np.array([0.0011, 0.0062, 0.0165])
+    q = np.exp(-np.outer(z * w, t)) * np.cos(np.outer(w * np.sqrt(1 - z**2), t) + np.array([[0.2], [0.9], [0.4]]))
+    clean = np.array([[1.0, 0.5, weak], [0.7, -0.4, -weak], [-0.3, 0.8, weak]]) @ q
+    noise = np.array([0.03, 0.19, 0.02]) * np.sqrt(np.mean(clean**2, axis=1))
+    return clean + noise[:, None] * np.random.default_rng(seed).standard_normal(clean.shape), w, z
+
+
+def test_a_pole_in_a_resolved_neighbours_band_is_tested_at_that_bands_look_elsewhere_factor():
+    """A pole at 11.39 rad/s (``zeta`` 0.0165) within the band of a mode at
+    11.27 (0.0062), correlating at 0.81 (over 1 / sqrt 2) and 0.12 rad/s
+    apart (over ``2 pi / T`` = 0.0083): no longer left untested. Its
+    threshold is chi-square(6)'s at 0.01 over the ``1 + 2 (sigma_a +
+    sigma_b) T / 2 pi`` = 63 frequencies of their band (26.8), not the
+    record's 13,500 (39.0). Noise alone there (statistic 9.4): listed
+    apart; a true mode there (statistic about 300): kept."""
+    y, w, z = _pair_record(0.0)
+    length = 27000 * 0.028
+    assert correlation(w[1:], z[1:], length)[0, 1] == pytest.approx(0.806, abs=0.002)
+    needed = chi2.isf(0.01 / (1 + 2 * (z[1] * w[1] + z[2] * w[2]) * length / (2 * np.pi)), 6)
+    ml = PoleRefinement(w, z, np.full(3, 1e-4), np.full(3, 1e-5), np.ones(3, bool), np.arange(3), {"applied": True})
+    kept, gone = retest([y], 0.028, ml, [])
+    assert kept.omega.tolist() == [2.5145, 11.27]
+    assert f"sensor noise's {needed:.3g}" in gone[0]["reason"] and needed == pytest.approx(26.8, abs=0.1)
+    y, *_ = _pair_record(0.01)
+    assert 200 < statistics([y], 0.028, w, z)[0][2] < 500
+    assert retest([y], 0.028, ml, [])[0].omega.size == 3

@@ -43,11 +43,11 @@ SSI pole a little off leaves a misfit at the record's start that a weak
 pole beside it takes up (issue 21, eighth round, tuning seed 700,143: a
 noise pole at 29.5 rad/s beside a mode of ``zeta`` 0.08 at 34.07 rad/s
 held 74 at SSI's poles, over the threshold 39, and 24 at the refined ones).
-There two kept modes are left untested as a crowded pair only when the
-record does not resolve them by the correlation of their damped
-exponentials (:func:`correlation`), not by their half-power bands alone: a
-lightly damped pole on a broad mode's flank is within its band but
-resolved.
+There a crowded pair is left untested only within ``2 pi / T``; a pole
+whose damped exponential correlates with a neighbour's over ``OVERLAP``
+(:func:`correlation`) is tested at the look-elsewhere factor of their
+band, and one within a neighbour's half-power band that correlates less
+(a lightly damped pole on a broad mode's flank) as any other.
 """
 from __future__ import annotations
 
@@ -123,8 +123,16 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     but for those within ``max(2 pi / T, zeta_a omega_a + zeta_b omega_b)``
     of a kept mode: the same pole, which would take up its fit). Kept modes
     within that distance of each other (a close pair the record does not
-    resolve: their columns share one fit) are left to the pair tests.
-    A record leaving no degree of freedom for the noise changes nothing."""
+    resolve: their columns share one fit) are left to the pair tests; with
+    ``overlap`` only those within ``2 pi / T``: the others are tested, one
+    whose damped exponential correlates with a kept neighbour's over
+    ``OVERLAP`` (:func:`correlation`; for two equally damped poles the
+    bandwidth bound above, and a narrow pole on a broad one's flank is
+    resolved) at the look-elsewhere factor of their joint band ``2 (sigma_a
+    + sigma_b)`` (``1 + 2 (sigma_a + sigma_b) T / 2 pi`` frequencies) in
+    place of the record's ``n / 2``: a noise pole that close has no other
+    place to be. A record leaving no degree of freedom for the noise
+    changes nothing."""
     keep = verdict.keep
     if not keep.any():
         return verdict
@@ -138,9 +146,13 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     value, needed = statistics(records, dt, omega[keep], zeta[keep], nuisance)
     w, z = omega[keep], np.abs(zeta[keep])
     crowded = np.abs(w[:, None] - w[None, :]) < np.maximum(2 * np.pi / length, z[:, None] * w[:, None] + z * w)
-    if overlap:
-        crowded &= (np.abs(w[:, None] - w[None, :]) < 2 * np.pi / length) | (correlation(w, z, length) > OVERLAP)
     np.fill_diagonal(crowded, False)  # a pair the record does not resolve shares its fit: left to the pair tests
+    if overlap:  # tested beside a partner it correlates with, at the look-elsewhere factor of the partner's band
+        near = crowded & (correlation(w, z, length) > OVERLAP)
+        crowded &= np.abs(w[:, None] - w[None, :]) < 2 * np.pi / length
+        bins = np.max(np.where(near, (z * w)[:, None] + z * w, 0.0), axis=1, initial=0.0) * length / np.pi + 1
+        dof = 2 * sum(y.shape[0] for y in records)
+        needed = np.where(near.any(axis=1) & np.isfinite(needed), chi2.isf(ALPHA / bins, dof), needed)
     fails = np.zeros(keep.size, dtype=bool)
     fails[keep] = (value < needed) & ~crowded.any(axis=1)  # NaN: no verdict
     reasons = [f"matched-filter chi-square {v:.3g} under the sensor noise's {t:.3g} (free response)"
