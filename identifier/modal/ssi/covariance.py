@@ -38,8 +38,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft as sfft
+from scipy import stats
 
 from ..runtime import irfft, rfft
+
+DECAY_ALPHA = 1e-3  # a stationary record taken for a free decay by one channel's decay (decaying_channel)
 
 
 @dataclass(frozen=True)
@@ -94,14 +97,40 @@ def group_labels(n: int, groups: int, lags: int, decay: bool) -> np.ndarray:
 
 
 def is_free_decay(y: np.ndarray) -> bool:
-    """A record (m, n) whose first tenth carries more than 10 times the mean
-    square of its last tenth, each channel scaled to unit RMS first (so that
-    no one channel's units decide): a free decay rather than a stationary
-    response."""
+    """A record (m, n) that decays: a free decay rather than a stationary
+    response. Each channel is scaled to unit RMS first (no one channel's
+    units decide); the record decays when its first tenth carries more than
+    10 times the mean square of its last tenth over all channels, or when
+    one channel's does more than a stationary record's would by chance
+    (:func:`decaying_channel`: a channel free of the slow modes that hold
+    the pooled ratio down)."""
     y = y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny)
     tenth = max(y.shape[1] // 10, 1)
     first, last = np.mean(y[:, :tenth] ** 2), np.mean(y[:, -tenth:] ** 2)
-    return bool(first > 10.0 * last)
+    return bool(first > 10.0 * last) or decaying_channel(y)
+
+
+def decaying_channel(z: np.ndarray) -> bool:
+    """Whether a channel of ``z`` (m, n) has a first tenth's mean square
+    ``F_i`` over its last tenth's ``L_i`` (``N = n // 10`` samples each) beyond
+    ``f.isf(DECAY_ALPHA / m, d_i, d_i)``: the F law of the ratio of two
+    mean squares of a stationary Gaussian record, each with ``d_i = N / S_i``
+    degrees of freedom, ``S_i = 1 + 2 sum_{k<N} (1 - k/N) rho_ik^2`` (the
+    variance of a mean of ``N`` squares over the white case's; ``rho_ik``
+    the channel's autocorrelation). A stationary record passes with
+    probability about ``DECAY_ALPHA``; a slow, lightly damped random
+    response has few degrees of freedom and needs a large ratio. Fails to see
+    a free decay whose every channel carries a mode that hardly decays."""
+    m, n = z.shape
+    tenth = max(n // 10, 1)
+    first, last = np.mean(z[:, :tenth] ** 2, axis=1), np.mean(z[:, -tenth:] ** 2, axis=1)
+    centred = z - z.mean(axis=1, keepdims=True)
+    size = sfft.next_fast_len(2 * n, real=True)  # no wrap-around
+    ac = irfft(np.abs(rfft(centred, n=size, axis=1)) ** 2, n=size, axis=1)[:, :tenth]
+    rho = np.divide(ac, ac[:, :1], out=np.zeros_like(ac), where=ac[:, :1] > 0)
+    k = np.arange(1, tenth)
+    dof = tenth / (1.0 + 2.0 * np.sum((1.0 - k / tenth) * rho[:, 1:] ** 2, axis=1))
+    return bool(np.any(first > stats.f.isf(DECAY_ALPHA / m, dof, dof) * last))
 
 
 def stationary_piece(usable: int, groups: int, lags: int, m: int, r: int) -> int:
