@@ -40,9 +40,8 @@ noise.
 After the ML refinement (:mod:`.refine`) the reported modes are tested again
 at their refined poles (:func:`retest`, same level): a strong mode's
 SSI pole a little off leaves a misfit at the record's start that a weak
-pole beside it takes up (issue 21, eighth round, tuning seed 700,143: a
-noise pole at 29.5 rad/s beside a mode of ``zeta`` 0.08 at 34.07 rad/s
-held 74 at SSI's poles, over the threshold 39, and 24 at the refined ones).
+noise pole beside it takes up, over the threshold at SSI's poles and under
+it at the refined ones (docs/modal-method.md, issue 21's eighth round).
 There a crowded pair is left untested only within ``2 pi / T``; a pole
 whose damped exponential correlates with a neighbour's over ``OVERLAP``
 (:func:`correlation`) is tested at the look-elsewhere factor of their

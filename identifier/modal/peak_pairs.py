@@ -79,9 +79,8 @@ on their own unit shape (``|u_c^H Y_k|^2``, which shows a weak mode the
 summed periodogram hides under other shapes' response), each by
 :func:`identifier.modal.peak_test.peak_lr` at SSI's damping and at
 ``zeta_top`` (whose band, ``10 zeta_top omega`` wide, holds the peak of a
-true mode whose damping SSI underestimates: tuning seed 700607's
-25.26 rad/s, zeta 0.0216, SSI 0.0034 +- 0.0045, p-value 1 at SSI's and
-2e-32 at ``zeta_top``), the smaller p-value of the two times 2: a noise
+true mode whose damping SSI underestimates, which the band at SSI's
+damping would miss), the smaller p-value of the two times 2: a noise
 pole is kept with probability at most ``2 peak_test.ALPHA``.
 
 Shapes are compared (``SHADOW_MAC``, :func:`alike`) in unit-RMS channels

@@ -105,8 +105,7 @@ where the test's band ``10 zeta omega`` reaches its cap ``omega / 2``):
 noise poles stable at 51-74 % of the orders, damping not told from zero
 and no peak, beside or between true modes (issue 21, eighth round). Over
 ``CUT`` the band is cut and misses the skirts of a heavily damped true
-mode, which then shows no peak (tuning seeds 300032, 100903: zeta 0.08
-and 0.02, upper ends 0.18 and 0.06): not tested.
+mode, which then shows no peak: not tested.
 
 Short-record bias. In a stationary random response of ``T`` seconds the
 covariance estimates ``R_l`` of a mode of decay rate ``sigma = zeta omega``
