@@ -4,7 +4,9 @@ of a large quantity (an acceleration beside displacements) made unlike
 shapes score MAC near 1, and the pair test took two modes for one; and of
 two alike candidates in one band both must show a spectral peak, the
 better supported one too (issue 21, fifth round: tuning seed 400043
-reported a narrow pole beside a true mode of its shape)."""
+reported a narrow pole beside a true mode of its shape). The duplicate
+rule (identifier/modal/support.py) takes shapes alike in either units
+(issue 21, tenth round: tuning seed 800695's free decay)."""
 from __future__ import annotations
 
 import numpy as np
@@ -53,3 +55,28 @@ def test_a_better_supported_pole_beside_a_true_mode_of_its_shape_needs_its_own_p
                     spectrum=([y], DT))
     assert verdict.keep.tolist() == [True, False], verdict.reasons
     assert "no spectral peak of its own" in verdict.reasons[1]
+
+
+def test_a_free_decays_duplicate_is_told_by_its_shape_in_unit_rms_channels():
+    """A free decay's one mode (17.7 rad/s, zeta 2.5 %) seen twice by SSI,
+    0.001 rad/s apart (unresolved; as tuning seed 800695's 17.698 / 17.699
+    on 22 sensors of mixed quantities), the copies differing only in an
+    acceleration channel whose RMS (1000, another mode's) dwarfs this
+    mode's part of it: MAC 0.998 in unit-RMS channels but 0.0006 in
+    physical units, where the duplicate rule (MAC over 0.8) kept both; in
+    unit-RMS channels the weaker copy is dropped."""
+    rng = np.random.default_rng(14)
+    t = np.arange(20000) * 0.01
+    y = np.outer(np.r_[A[:3], 0.0], np.exp(-0.025 * 17.7 * t) * np.cos(17.7 * t))
+    y[3] = 1000.0 * rng.standard_normal(t.size)
+    y += 0.01 * rng.standard_normal(y.shape)
+    shapes = np.column_stack([np.r_[A[:3], 50.0], np.r_[A[:3], 0.0]]).astype(complex)
+    unit = shapes / y.std(axis=1)[:, None]
+    assert mac(shapes, shapes)[0, 1] < 0.01 and mac(unit, unit)[0, 1] > 0.99
+    args = (np.array([17.6988, 17.6978]), np.array([0.02526, 0.02525]), np.array([0.0026, 0.013]),
+            np.array([0.00025, 0.00027]), np.zeros(2), np.array([14, 13]), np.array([0.35, 0.33]), shapes,
+            200.0, True, 8)
+    assert judge(*args).keep.tolist() == [True, True]
+    verdict = judge(*args, spectrum=([y], 0.01))
+    assert verdict.keep.tolist() == [True, False], verdict.reasons
+    assert "duplicate" in verdict.reasons[1]

@@ -275,7 +275,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                     np.array([md.support for md in modes]),
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
-                    errors=replicates is not None, shape_std=shape_se, spectrum=None if free else (records, dt))
+                    errors=replicates is not None, shape_std=shape_se, spectrum=(records, dt))
     if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
         # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)

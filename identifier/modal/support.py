@@ -24,8 +24,12 @@ a run add up as independent records):
 - finite errors: ``omega_std`` and ``damping_std`` finite and positive and
   ``omega_std < MAX_RELATIVE omega`` (a pole as uncertain as that is no
   estimate);
-- duplicates: two modes whose shapes agree (MAC above ``DUPLICATE_MAC``)
-  and whose frequencies the record does not resolve,
+- duplicates: two modes whose shapes agree (MAC above ``DUPLICATE_MAC``
+  in physical units or in unit-RMS channels: a channel of a large
+  quantity that holds little of the mode, e.g. another mode's
+  acceleration, makes one shape's two estimates unlike in physical
+  units; a noisy channel, in unit-RMS ones) and whose frequencies the
+  record does not resolve,
 
       |omega_a - omega_b| < max(3 sqrt(se_a^2 + se_b^2), 2 pi / T,
                                 (zeta_a omega_a + zeta_b omega_b) / 2),
@@ -203,9 +207,10 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     ``uncertainty="off"`` the repetition and error tests are skipped);
     ``shape_std`` (m, k): standard errors of the entries of the real
     shapes (:func:`identifier.modal.ssi.poles.real_shapes`), NaN where
-    unknown; ``spectrum``: the stationary records (m, n_i) and their ``dt``
-    s for the spectral-peak test (not applied without them, nor to free
-    responses). Tests and thresholds in the module docstring."""
+    unknown; ``spectrum``: the records (m, n_i) and their ``dt`` s, for
+    the spectral-peak test (stationary records only) and the duplicate
+    rule's MAC in unit-RMS channels as well as physical units. Tests
+    and thresholds in the module docstring."""
     k = omega.size
     reasons = [""] * k
     periods = omega * length / (2 * np.pi)
@@ -227,7 +232,8 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             reasons[i] = (f"stable at {stable[i]:.0%} of the model orders (under {MIN_STABLE:.0%}) with "
                           f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
                           f"{BANDWIDTH:g} zeta)")
-    shape_mac = mac(shapes, shapes) if k > 1 else np.zeros((k, k))
+    scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
+    shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), shapes,
                           reasons, _weak(zeta, zeta_std, np.asarray(stable)))
