@@ -93,9 +93,14 @@ records, coverage 95.3 / 93.8 %, supported modes found 81.9 %); they are
 tuning seeds since issue 21's tenth round (its five records with an
 invented mode, 800,518, 800,553, 800,695, 800,751 and 800,843, looked at;
 800,000-800,199 and 800,400-800,599 run in its checks). Seeds
-900,000-900,999 are reserved fresh for the lead's next check:
+900,000-900,999 were fresh for the check of the final code (7eec3cf, run
+once; 1000 records: 51 refused, 0 crashed, 3 invented modes in 3
+records, coverage 95.2 / 94.1 %, supported modes found 82.0 %; the three
+records not looked at):
 
     python benchmarks/modal_fuzz.py --kind unseen --first 900000 --seeds 1000
+
+Seeds 1,000,000 and above have never been run.
 """
 from __future__ import annotations
 
