@@ -124,3 +124,14 @@ def test_a_pole_in_a_resolved_neighbours_band_is_tested_at_that_bands_look_elsew
     y, *_ = _pair_record(0.01)
     assert 200 < statistics([y], 0.028, w, z)[0][2] < 500
     assert retest([y], 0.028, ml, [])[0].omega.size == 3
+
+
+def test_a_noise_free_record_gives_an_infinite_statistic_without_a_warning():
+    """A channel the poles fit exactly (no noise, residual 0,
+    amplitude 1000): each mode's statistic is inf (kept), and no overflow
+    warning reaches the user."""
+    t = np.arange(2000) * DT
+    y = (1e3 * np.exp(-STRONG[0] * STRONG[1] * t) * np.cos(STRONG[0] * np.sqrt(1 - STRONG[1] ** 2) * t))[None, :]
+    with np.errstate(all="raise"):
+        value, needed = statistics([y], DT, np.array([STRONG[0]]), np.array([STRONG[1]]))
+    assert value[0] == np.inf and np.isfinite(needed[0])
