@@ -182,13 +182,14 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           support: np.ndarray, shapes: np.ndarray, reasons: list[str], weak: np.ndarray | None = None) -> None:
+           support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray | None = None) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
     flags needs a peak of its own, :func:`identifier.modal.peak_test.peak_lr`): candidates at ``omega``
     (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
-    complex ``shapes`` (m, k), in stationary records (m, n_i) at ``dt`` s;
+    complex shapes ``scaled`` (m, k) in unit-RMS channels
+    (:func:`unit_scaled`), in stationary records (m, n_i) at ``dt`` s;
     ``weak`` (k,): for each candidate that needs a peak too (:func:`_faint`)
     the upper end of its damping interval, NaN for the others."""
     k = omega.size
@@ -196,7 +197,6 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         return
     open_ = [i for i in range(k) if not reasons[i]]
     dropped: set[int] = set()
-    scaled = unit_scaled(records, shapes)
     found = pairs(omega, zeta, scaled, open_) if k > 1 else []
     if found:
         n = min(y.shape[1] for y in records)

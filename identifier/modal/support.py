@@ -235,7 +235,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
-        peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), shapes,
+        peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
                           reasons, _weak(zeta, zeta_std, np.asarray(stable)))
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
