@@ -73,8 +73,8 @@ def reproduction_campaign(name: str, repetitions: int | None) -> Campaign:
 
 
 DONE = "reproduced.json"  # in OUT/<case>/ once the case is complete: what it ran with
-LANES = 2  # cases at the same time; ORDER: longest first, so that the last to start is short (CPU s
-# per case on 5be665f, 20 repetitions: 45, 44, 12, 11, 7, 3, 3; two lanes of about 62 s each)
+LANES = 2  # cases at the same time; ORDER: longest first by CPU time (each case's last progress line),
+# so that the last to start is short
 ORDER = ("ch4-case2", "ch5-damped", "ch5-beam", "ch3", "ch4-case1", "ch3-damped", "ch5-membrane")
 
 
