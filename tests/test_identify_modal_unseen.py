@@ -7,6 +7,8 @@ a record too short for the default block sizes. `python
 benchmarks/modal_fuzz.py` runs many such random structures."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import modal_fuzz
 import numpy as np
 import pytest
@@ -79,8 +81,8 @@ def test_shadows_of_a_strong_mode_in_random_data_are_not_modes(seed, monkeypatch
     result = modal.identify([modal_fuzz.trace(y, dt)])
     assert len(result.omega) == omega.size
     assert np.abs(np.array(result.omega) / omega - 1).max() < 3e-3
-    criteria = modal.Criteria
-    monkeypatch.setattr(modal, "Criteria", lambda **kw: criteria(shadow_support=0.0, **kw))
+    for_record = modal.Criteria.for_record
+    monkeypatch.setattr(modal.Criteria, "for_record", lambda *args: replace(for_record(*args), shadow_support=0.0))
     loose = modal.identify([modal_fuzz.trace(y, dt)])
     seen = len(loose.omega) + len(loose.details["rejected"])
     assert seen > len(result.omega) + len(result.details["rejected"])

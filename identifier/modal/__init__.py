@@ -251,7 +251,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                               for md, c, good in zip(candidates, values, ok) if not good)
             return ok
 
-        modes, flags = select_modes(poles, Criteria(min_fraction=min_fraction), coherent)
+        modes, flags = select_modes(poles, Criteria.for_record(not free, min_fraction), coherent)
         periodic_modes, found = periodic.confirm(
             screened, dt, np.array([md.omega for md in modes]),
             np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),
@@ -275,7 +275,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                     np.array([md.support for md in modes]),
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
-                    errors=replicates is not None, shape_std=shape_se, spectrum=(records, dt))
+                    errors=replicates is not None, shape_std=shape_se, spectrum=(records, dt),
+                    coherence=np.array(fits, float))
     if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
         # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)
@@ -356,16 +357,16 @@ def _warnings(decay: bool, f_low: float, length: float) -> list[str]:
 def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list[Mode],
                count: int = COHERENCE_ORDERS) -> list[float]:
     """Each mode's temporal coherence: at ``count`` of its orders spread over
-    those of its stable poles (``members``, (order, index) pairs), the
-    coherence of its most coherent pole there; their median. One
+    those of the stable poles it is estimated from (``used``, (order,
+    index) pairs), the coherence of its most coherent pole there; their median. One
     :func:`coherence` call for the poles of every mode."""
     if not modes:
         return []
     picks = []  # per mode, per picked order: its poles there
     for md in modes:
-        orders = sorted({n for n, _ in md.members})
+        orders = sorted({n for n, _ in md.used})
         chosen = [orders[i] for i in np.unique(np.linspace(0, len(orders) - 1, count).round().astype(int))]
-        picks.append([[(k, j) for k, j in md.members if k == n] for n in chosen])
+        picks.append([[(k, j) for k, j in md.used if k == n] for n in chosen])
     pairs = sorted({pair for mode_picks in picks for there in mode_picks for pair in there})
     value = dict(zip(pairs, coherence(U, rows, *pole_columns(by_order, pairs, U.shape[1]))))
     return [median([max(value[pair] for pair in there) for there in mode_picks]) for mode_picks in picks]

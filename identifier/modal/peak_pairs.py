@@ -182,7 +182,8 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray | None = None) -> None:
+           support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray | None = None,
+           why: list[str] | None = None) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
@@ -191,7 +192,8 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     complex shapes ``scaled`` (m, k) in unit-RMS channels
     (:func:`unit_scaled`), in stationary records (m, n_i) at ``dt`` s;
     ``weak`` (k,): for each candidate that needs a peak too (:func:`_faint`)
-    the upper end of its damping interval, NaN for the others."""
+    the upper end of its damping interval, NaN for the others; ``why``
+    (k,): the reason it needs one, which its rejection names."""
     k = omega.size
     if k == 0:
         return
@@ -227,17 +229,19 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                               f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
     if weak is not None:
         _faint(records, dt, omega, zeta, weak, scaled, reasons,
-               [i for i in open_ if not reasons[i] and np.isfinite(weak[i])], sorted(dropped))
+               [i for i in open_ if not reasons[i] and np.isfinite(weak[i])], sorted(dropped),
+               why or ["damping not told from 0"] * k)
 
 
 def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, top: np.ndarray,
-           scaled: np.ndarray, reasons: list[str], faint: list[int], dropped: list[int]) -> None:
+           scaled: np.ndarray, reasons: list[str], faint: list[int], dropped: list[int], why: list[str]) -> None:
     """The weak-candidate test (module docstring): each candidate of
     ``faint`` needs a peak of its own in the summed periodogram or in the
     channels projected on its own shape (``scaled`` (m, k), unit-RMS
     channels), tested at SSI's damping ``zeta`` and at ``top`` (k,), the
     upper end of its damping interval (p-value the smaller of the two
-    times 2); ``dropped`` candidates not among its neighbours."""
+    times 2); ``dropped`` candidates not among its neighbours; ``why`` (k,)
+    the reason each needs a peak."""
     if not faint:
         return
     summed = peak_test.summed_periodogram(records)
@@ -255,7 +259,7 @@ def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         u = scaled[:, i] / max(np.linalg.norm(scaled[:, i]), 1e-300)
         own, p_own = test(projected_periodogram(records, u))
         if p_own >= peak_test.ALPHA:
-            reasons[i] = (f"damping not told from 0 and no spectral peak of its own at zeta {abs(zeta[i]):.3g} "
+            reasons[i] = (f"{why[i]} and no spectral peak of its own at zeta {abs(zeta[i]):.3g} "
                           f"or {top[i]:.3g} (likelihood ratio {stat:.3g} summed, {own:.3g} in its shape; "
                           f"p-values {pvalue:.2g}, {p_own:.2g}; needs under {peak_test.ALPHA:g})")
 

@@ -9,6 +9,21 @@ a pole with
 
 and its damping ratio is physically plausible, ``-0.02 < zeta < zeta_max``
 (a small negative margin: undamped structures give zeta ~ 0 of either sign).
+In a stationary record a mode is found by the poles stable within the
+looser ``STATIONARY_LOOSE`` (2 % and 0.3, :meth:`Criteria.for_record`): its
+covariances carry estimation noise of relative size about ``1 / sqrt(zeta
+omega T)`` (``T`` s of record; the relative standard error of a random
+response's damping estimate is of that size), so a mode's poles wander
+between neighbouring orders by more than a free decay's do, and at 1 % and
+0.1 a mode of a short record is stable at too few orders to be found (on
+tuning records of benchmarks/modal_fuzz.py's held-out profile, issue 21
+eleventh round). A mode stable within the strict tolerances at enough
+orders is then estimated from those poles alone (its estimates and
+errors as before), while its support and share of stable orders count
+all its poles; only a mode found through the loose ones alone is
+estimated from them. The coherence, jackknife and spectral-peak tests
+after clustering (:mod:`identifier.modal.support`) tell such a mode from a
+cluster of covariance-noise poles, not these tolerances.
 Stable poles are grouped into modes: poles within ``freq_tol`` of a cluster's
 mean frequency and with MAC above ``mac_min`` to its shape join it, so
 that two modes of nearly equal frequency but different shapes stay apart and
@@ -50,13 +65,16 @@ reported.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from structbench.models.mac import mac
 
 from .ssi.poles import Poles
+
+
+STATIONARY_LOOSE = (0.02, 0.3)  # freq_tol, zeta_tol of the poles that find a mode of a stationary record
 
 
 @dataclass(frozen=True)
@@ -70,6 +88,13 @@ class Criteria:
     min_fraction: float = 0.3
     shadow: float = 0.1
     shadow_support: float = 0.75
+    loose: tuple[float, float] | None = None  # (freq_tol, zeta_tol) of the poles that find a mode
+
+    @classmethod
+    def for_record(cls, stationary: bool, min_fraction: float) -> Criteria:
+        """The criteria for a stationary record (modes found by poles stable
+        within ``STATIONARY_LOOSE``, module docstring) or a free response."""
+        return cls(min_fraction=min_fraction, loose=STATIONARY_LOOSE if stationary else None)
 
 
 @dataclass(frozen=True)
@@ -152,18 +177,22 @@ def _clusters(poles: list[Poles], flags: list[np.ndarray], criteria: Criteria) -
 
 def select_modes(poles: list[Poles], criteria: Criteria,
                  valid: Callable[[list[Mode]], list[bool]] | None = None) -> tuple[list[Mode], list[np.ndarray]]:
-    """The modes (ascending frequency) and the stability flags per order;
+    """The modes (ascending frequency) and the stability flags per order
+    (those that find modes: within ``criteria.loose`` when given);
     ``valid``: a further test every mode must pass before shadows are
     dropped (so that a mode it rejects shadows none), given all the
     candidate modes at once, one verdict each."""
     flags = stable_flags(poles, criteria)
+    found = flags if criteria.loose is None else \
+        stable_flags(poles, replace(criteria, freq_tol=criteria.loose[0], zeta_tol=criteria.loose[1]))
     need = max(2, int(np.ceil(criteria.min_fraction * (len(poles) - 1))))
     modes = []
-    for c in _clusters(poles, flags, criteria):
+    for c in _clusters(poles, found, criteria):
         if len({i for i, _ in c}) < need:
             continue
-        used = list(c)
-        own = one_per_order(c, poles)
+        strict = [(i, j) for i, j in c if flags[i][j]]
+        used = strict if len({i for i, _ in strict}) >= need else list(c)  # estimated from the strict poles
+        own = one_per_order(used, poles)
         omega = np.array([poles[i].omega[j] for i, j in used])
         zeta = np.array([poles[i].zeta[j] for i, j in used])
         middle = median(omega)
@@ -173,7 +202,7 @@ def select_modes(poles: list[Poles], criteria: Criteria,
                           tuple((poles[a].order, int(b)) for a, b in own)))
     if valid is not None:
         modes = [md for md, ok in zip(modes, valid(modes)) if ok]
-    return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), flags
+    return _merge(sorted(modes, key=lambda md: md.omega), poles, criteria), found
 
 
 def one_per_order(cluster: list[tuple[int, int]], poles: list[Poles]) -> list[tuple[int, int]]:

@@ -80,7 +80,16 @@ shape within its standard errors must show a peak in the channels
 projected on its shape apart from its neighbours'.
 
 Temporal coherence (:mod:`identifier.modal`) is tested before these and its
-failures are listed with them. A mode stable at under ``MIN_STABLE`` of the model orders
+failures are listed with them. A stationary candidate that passes it with
+coherence under ``COHERENT`` (its observability vectors only loosely the
+geometric sequence of its eigenvalue) must show a spectral peak of its own
+like a weak candidate below (:func:`identifier.modal.peak_pairs.screen`):
+a cluster of covariance-noise poles stable enough to form a mode reaches a
+coherence of 0.6-0.8 but holds no peak (issue 21, eleventh round). Of two
+candidates the record does not resolve (as for duplicates below), one
+under ``COHERENT``, the less coherent is dropped as a duplicate whatever
+its shape: noise poles stable at most orders beside a mode (kept by the
+stabilisation's ``STEADY`` rule at any coherence) share its peak. A mode stable at under ``MIN_STABLE`` of the model orders
 (:mod:`identifier.modal.stabilisation` asks ``min_fraction`` of every
 candidate) is reported only when the record pins it down,
 
@@ -157,6 +166,7 @@ MIN_STABLE = 0.5  # share of the model orders below which a mode must be precise
 LOOSE = 0.005  # ... omega_std < LOOSE omega
 BANDWIDTH = 0.5  # ... or omega_std < BANDWIDTH zeta omega (a share of its half-power bandwidth)
 UNDAMPED = 1.96  # ... and a mode among them whose damping is within this many standard errors of 0 needs a peak
+COHERENT = 0.8  # a stationary mode of temporal coherence under this needs a spectral peak of its own
 MAX_RELATIVE = 0.05  # largest omega_std / omega of a reported mode
 DUPLICATE_MAC = 0.8  # shapes this alike (MAC) and unresolved in frequency: one mode
 TWIN = 0.05  # poles closer than this many standard errors in omega and zeta: one mode
@@ -197,7 +207,8 @@ def with_bias(omega: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray, le
 def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: np.ndarray,
           missed: np.ndarray, support: np.ndarray, stable: np.ndarray, shapes: np.ndarray, length: float,
           decay: bool, groups: int, errors: bool = True, shape_std: np.ndarray | None = None,
-          spectrum: tuple[list[np.ndarray], float] | None = None) -> Verdict:
+          spectrum: tuple[list[np.ndarray], float] | None = None,
+          coherence: np.ndarray | None = None) -> Verdict:
     """The verdict on candidate modes (k,): ``omega`` rad/s, ``zeta``, their
     standard errors (bias included), ``missed`` (jackknife replicates that did
     not find each), ``support`` (stable poles), ``stable`` (share of the
@@ -209,8 +220,10 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     shapes (:func:`identifier.modal.ssi.poles.real_shapes`), NaN where
     unknown; ``spectrum``: the records (m, n_i) and their ``dt`` s, for
     the spectral-peak test (stationary records only) and the duplicate
-    rule's MAC in unit-RMS channels as well as physical units. Tests
-    and thresholds in the module docstring."""
+    rule's MAC in unit-RMS channels as well as physical units;
+    ``coherence`` (k,): each candidate's temporal coherence (none: not
+    tested against ``COHERENT``). Tests and thresholds in the module
+    docstring."""
     k = omega.size
     reasons = [""] * k
     periods = omega * length / (2 * np.pi)
@@ -235,8 +248,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
+        top, why = _weak(zeta, zeta_std, np.asarray(stable), coherence)
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
-                          reasons, _weak(zeta, zeta_std, np.asarray(stable)))
+                          reasons, top, why)
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC
@@ -244,30 +258,51 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             alike |= same_shape(shapes, shape_std)
         se = np.where(np.isfinite(omega_std), omega_std, 0.0)
         sz = np.where(np.isfinite(zeta_std), zeta_std, 0.0)
+        resolve = np.maximum.reduce([3 * np.hypot(se[:, None], se[None, :]), np.full((k, k), 2 * np.pi / length),
+                                     0.5 * (np.abs(zeta) * omega)[:, None] + 0.5 * (np.abs(zeta) * omega)[None, :]])
+        unresolved = np.abs(omega[:, None] - omega[None, :]) < resolve
+        if coherence is not None and not decay:
+            _less_coherent(omega, np.asarray(coherence, float), unresolved, keep, reasons)
         for i in np.argsort(-np.asarray(support), kind="stable"):  # the best supported first
             if not keep[i]:
                 continue
             for j in np.flatnonzero(keep):
                 if j == i or support[j] > support[i] or (support[j] == support[i] and j < i):
                     continue
-                resolve = max(3 * np.hypot(se[i], se[j]), 2 * np.pi / length,
-                              0.5 * (abs(zeta[i]) * omega[i] + abs(zeta[j]) * omega[j]))
                 twins = (abs(omega[i] - omega[j]) < TWIN * np.hypot(se[i], se[j])
                          and abs(zeta[i] - zeta[j]) < TWIN * np.hypot(sz[i], sz[j]))
-                if twins or (alike[i, j] and abs(omega[i] - omega[j]) < resolve):
+                if twins or (alike[i, j] and unresolved[i, j]):
                     keep[j] = False
                     reasons[j] = f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record)"
     return Verdict(keep, reasons)
 
 
-def _weak(zeta: np.ndarray, zeta_std: np.ndarray, stable: np.ndarray) -> np.ndarray:
+def _weak(zeta: np.ndarray, zeta_std: np.ndarray, stable: np.ndarray, coherence: np.ndarray | None
+          ) -> tuple[np.ndarray, list[str]]:
     """Per candidate (k,) the upper end ``|zeta| + UNDAMPED zeta_std`` of its
     damping interval where it must show a spectral peak (module docstring:
     damping not told from zero, and stable at under ``MIN_STABLE`` of the
-    orders or with that upper end under ``peak_test.CUT``), NaN elsewhere."""
-    top = np.abs(zeta) + UNDAMPED * zeta_std
-    tested = (np.abs(zeta) < UNDAMPED * zeta_std) & ((stable < MIN_STABLE) | (top <= peak_test.CUT))
-    return np.where(tested, top, np.nan)
+    orders or with that upper end under ``peak_test.CUT``; or temporal
+    coherence under ``COHERENT``), NaN elsewhere, and why it must."""
+    top = np.abs(zeta) + UNDAMPED * np.where(np.isfinite(zeta_std), zeta_std, 0.0)
+    undamped = (np.abs(zeta) < UNDAMPED * zeta_std) & ((stable < MIN_STABLE) | (top <= peak_test.CUT))
+    loose = np.zeros_like(undamped) if coherence is None else np.asarray(coherence, float) < COHERENT
+    why = ["damping not told from 0" if u else f"temporal coherence {c:.2f} (under {COHERENT:g})" if lo else ""
+           for u, lo, c in zip(undamped, loose, coherence if coherence is not None else np.ones(zeta.size))]
+    return np.where(undamped | loose, top, np.nan), why
+
+
+def _less_coherent(omega: np.ndarray, coherence: np.ndarray, unresolved: np.ndarray, keep: np.ndarray,
+                   reasons: list[str]) -> None:
+    """Of two kept candidates the record does not resolve (``unresolved``
+    (k, k)), one of temporal coherence under ``COHERENT``, the less
+    coherent is dropped (module docstring), most coherent kept first."""
+    for i in np.argsort(-coherence, kind="stable"):
+        for j in np.flatnonzero(keep & unresolved[i]):
+            if keep[i] and j != i and coherence[j] < min(coherence[i], COHERENT):
+                keep[j] = False
+                reasons[j] = (f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record; "
+                              f"temporal coherence {coherence[j]:.2f}, under {COHERENT:g} and its {coherence[i]:.2f})")
 
 
 def rejected(omega: np.ndarray, zeta: np.ndarray, verdict: Verdict) -> list[dict]:
