@@ -62,13 +62,23 @@ peak. Skipped when ``|(I - V V^+) u_c| < APART`` (the shapes do not tell
 them apart).
 
 Shadows (last, :func:`shadows`): a candidate of the shape of a better
-supported one (MAC of the complex shapes over ``SHADOW_MAC``), and each
-of two alike candidates (:func:`alike` over ``PAIR_MAC``) within the wider
-of their bands ``h`` whichever is better supported (SSI can fit a narrow
-pole of a mode's shape beside it, better supported than the mode itself:
-tuning seed 400043's at 30.3 rad/s, 6 half-widths from the true 28.5), is
-tested by :func:`identifier.modal.peak_test.peak_lr` on the summed
-periodogram, the rejected partners of pairs not among its neighbours.
+supported one (MAC of the complex shapes over ``SHADOW_MAC``), the better
+supported one too where its damping is told from zero (``|zeta| >=
+1.96 zeta_std``), and each of two alike candidates (:func:`alike` over
+``PAIR_MAC``) within the wider of their bands ``h`` whichever is better
+supported (SSI can fit a pole of a mode's shape beside it, better
+supported than the mode itself: tuning seed 400043's at 30.3 rad/s, 6
+half-widths from the true 28.5, and 900897's at 48.5 rad/s on one
+sensor, 5 half-widths above the true 37.9, on the flank of its
+acceleration spectrum), is tested by
+:func:`identifier.modal.peak_test.peak_lr` on the summed periodogram, the
+rejected partners of pairs not among its neighbours. The test is at SSI's
+damping, so a better supported candidate whose damping the record does
+not tell from zero is left to the weak-candidate test below, which tries
+the upper end of its damping interval too (tuning seeds 900714 and
+900753: true modes of one sensor at 95.7 and 65.0 rad/s, SSI's damping
+0.0013 and 0.0018 for the true 0.008 and 0.016, without a peak at SSI's
+damping).
 
 Weak candidates (last, :func:`_faint`; :mod:`identifier.modal.support`
 names them: damping within 1.96 standard errors of zero, and stable at
@@ -183,7 +193,7 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
            support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray | None = None,
-           why: list[str] | None = None) -> None:
+           why: list[str] | None = None, settled: np.ndarray | None = None) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
@@ -193,7 +203,8 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     (:func:`unit_scaled`), in stationary records (m, n_i) at ``dt`` s;
     ``weak`` (k,): for each candidate that needs a peak too (:func:`_faint`)
     the upper end of its damping interval, NaN for the others; ``why``
-    (k,): the reason it needs one, which its rejection names."""
+    (k,): the reason it needs one, which its rejection names; ``settled``
+    (k,) bool: damping told from zero (:func:`shadows`), none when None."""
     k = omega.size
     if k == 0:
         return
@@ -217,7 +228,8 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                                  f"{pvalue:.2g}; needs under {peak_test.ALPHA:g})")
     _apart(records, dt, omega, zeta, omega_std, support, scaled, reasons, open_, dropped)
     open_ = [i for i in open_ if not reasons[i]]
-    shadowed = shadows(omega, zeta, np.asarray(support), scaled, min(y.shape[1] for y in records) * dt)
+    shadowed = shadows(omega, zeta, np.asarray(support), scaled, min(y.shape[1] for y in records) * dt,
+                       np.zeros(k, bool) if settled is None else settled)
     shadowed[:, sorted(dropped)] = False  # a rejected partner shadows nothing
     doubted = [i for i in open_ if i not in dropped and shadowed[i].any()]
     if doubted:
@@ -264,20 +276,22 @@ def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                           f"p-values {pvalue:.2g}, {p_own:.2g}; needs under {peak_test.ALPHA:g})")
 
 
-def shadows(omega: np.ndarray, zeta: np.ndarray, support: np.ndarray, scaled: np.ndarray, T: float) -> np.ndarray:
+def shadows(omega: np.ndarray, zeta: np.ndarray, support: np.ndarray, scaled: np.ndarray, T: float,
+            settled: np.ndarray) -> np.ndarray:
     """(k, k): whether candidate ``i`` must show a peak of its own because
     of candidate ``j`` (module docstring, shadows): MAC over ``SHADOW_MAC``
-    and ``j`` better supported, or alike (:func:`alike` over ``PAIR_MAC``)
-    and within the wider of their bands (:func:`identifier.modal.peak_test.half_width`,
-    records of ``T`` s), whichever is better supported; candidates at
-    ``omega`` (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable
-    poles, ``scaled`` (m, k) shapes in unit-RMS channels."""
+    and ``j`` better supported or ``settled[i]`` (its damping told from
+    zero), or alike (:func:`alike` over ``PAIR_MAC``) and within the wider
+    of their bands (:func:`identifier.modal.peak_test.half_width`, records
+    of ``T`` s), whichever is better supported; candidates at ``omega``
+    (k,) rad/s, damping ``zeta`` (k,), ``support`` (k,) stable poles,
+    ``scaled`` (m, k) shapes in unit-RMS channels, ``settled`` (k,) bool."""
     k = omega.size
     if k < 2:
         return np.zeros((k, k), dtype=bool)
     half = peak_test.half_width(omega, zeta, T)
     near = np.abs(omega[:, None] - omega[None, :]) <= np.maximum(half[:, None], half[None, :])
-    out = ((mac(scaled, scaled) > SHADOW_MAC) & (support[None, :] > support[:, None])
+    out = ((mac(scaled, scaled) > SHADOW_MAC) & ((support[None, :] > support[:, None]) | settled[:, None])
            | (alike(scaled) > PAIR_MAC) & near)
     np.fill_diagonal(out, False)
     return out

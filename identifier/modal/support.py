@@ -59,7 +59,8 @@ a run add up as independent records):
 
 Spectral peak (stationary records), for a mode of the shape of a better
 supported one (MAC above ``peak_pairs.SHADOW_MAC``, the stabilisation's
-``mac_min``), and for each of two alike modes within one's band (both, the
+``mac_min``; the better supported one too where its damping is told from
+zero), and for each of two alike modes within one's band (both, the
 better supported too; shapes compared in unit-RMS channels,
 :func:`identifier.modal.peak_pairs.shadows`): the record's spectrum holds a
 peak at the mode, by the likelihood-ratio test of
@@ -250,7 +251,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     if spectrum is not None and not decay:
         top, why = _weak(zeta, zeta_std, np.asarray(stable), coherence)
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
-                          reasons, top, why)
+                          reasons, top, why, np.abs(zeta) >= UNDAMPED * zeta_std)
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC
