@@ -91,7 +91,16 @@ summed periodogram hides under other shapes' response), each by
 ``zeta_top`` (whose band, ``10 zeta_top omega`` wide, holds the peak of a
 true mode whose damping SSI underestimates, which the band at SSI's
 damping would miss), the smaller p-value of the two times 2: a noise
-pole is kept with probability at most ``2 peak_test.ALPHA``.
+pole is kept with probability at most ``2 peak_test.ALPHA``. At
+``zeta_top`` the neighbours in ``S0`` are those SSI's damping resolves
+(``peak_test.peak_lr``'s ``wide``): the widened band would otherwise
+leave a narrow neighbour out and count its peak as the candidate's
+(tuning seed 900959: LR 182 at 39.3 rad/s from the true 36.8's peak). The
+projected chance is not given to a candidate whose unit shape lies
+within the span of the other-shaped candidates in its band (``zeta_top``'s;
+part apart under ``APART``, as the projected test): its shape is a mix
+of theirs, so the channels projected on it show their peaks (900959's
+39.3: 0.15 apart, LR 36 in its shape from its neighbour's skirts).
 
 Shapes are compared (``SHADOW_MAC``, :func:`alike`) in unit-RMS channels
 (:func:`unit_scaled`, the channels of the periodograms): in physical units
@@ -252,23 +261,36 @@ def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     channels projected on its own shape (``scaled`` (m, k), unit-RMS
     channels), tested at SSI's damping ``zeta`` and at ``top`` (k,), the
     upper end of its damping interval (p-value the smaller of the two
-    times 2); ``dropped`` candidates not among its neighbours; ``why`` (k,)
+    times 2; the neighbours resolved at ``zeta``), the projected chance
+    only for a shape ``APART`` from the other-shaped candidates in its
+    band; ``dropped`` candidates not among its neighbours; ``why`` (k,)
     the reason each needs a peak."""
     if not faint:
         return
     summed = peak_test.summed_periodogram(records)
+    like = alike(scaled)
     for i in faint:
         high = np.where(np.arange(omega.size) == i, top, zeta)
+        half = peak_test.half_width(omega, high, min(y.shape[1] for y in records) * dt)
 
         def test(spectrum: np.ndarray) -> tuple[float, float]:
-            found = [peak_test.peak_lr(records, dt, omega, z, [i], excluded={i: dropped}, summed=spectrum)
-                     for z in (zeta, high)]
+            found = [peak_test.peak_lr(records, dt, omega, zeta, [i], excluded={i: dropped}, summed=spectrum,
+                                       wide=z) for z in (zeta, high)]
             return max(stat[i] for stat, _ in found), min(1.0, 2.0 * min(p[i] for _, p in found))
 
         stat, pvalue = test(summed)
         if pvalue < peak_test.ALPHA:
             continue
         u = scaled[:, i] / max(np.linalg.norm(scaled[:, i]), 1e-300)
+        others = [j for j in range(omega.size) if j != i and j not in dropped and like[i, j] <= PAIR_MAC
+                  and abs(omega[j] - omega[i]) <= half[i]]
+        apart = np.linalg.norm(u - scaled[:, others] @ np.linalg.lstsq(scaled[:, others], u, rcond=None)[0]) \
+            if others else 1.0
+        if apart < APART:
+            reasons[i] = (f"{why[i]}, no spectral peak of its own at zeta {abs(zeta[i]):.3g} or "
+                          f"{top[i]:.3g} (likelihood ratio {stat:.3g}, p-value {pvalue:.2g}; needs under "
+                          f"{peak_test.ALPHA:g}) and a shape {apart:.2f} apart from its neighbours' (under {APART:g})")
+            continue
         own, p_own = test(projected_periodogram(records, u))
         if p_own >= peak_test.ALPHA:
             reasons[i] = (f"{why[i]} and no spectral peak of its own at zeta {abs(zeta[i]):.3g} "

@@ -143,7 +143,7 @@ def places(n: int, zeta: float, omega: float, T: float) -> float:
 def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
             zeta: np.ndarray, which: list[int] | None = None,
             excluded: dict[int, list[int]] | None = None,
-            summed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+            summed: np.ndarray | None = None, wide: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per candidate (k,): ``LR`` and its p-value bound with the Bonferroni
     factor (module docstring), for candidates at ``omega`` (k,) rad/s,
     damping ``zeta`` (k,), in stationary records
@@ -151,10 +151,16 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
     None) are tested, the others are their neighbours only (those the band
     resolves, module docstring; never those ``excluded[c]`` lists for
     candidate ``c``). ``summed``: the periodogram (n // 2 + 1,) of the
-    records cut to the shortest, :func:`summed_periodogram` when None. A
+    records cut to the shortest, :func:`summed_periodogram` when None.
+    ``wide`` (k,): the damping ratios at which each tested candidate's band,
+    term and Bonferroni factor are taken, ``zeta`` when None; which
+    neighbours the band resolves is judged at ``zeta`` all the same (a
+    band widened to a candidate's damping interval would leave a narrow
+    neighbour out of ``S0`` and count its peak as the candidate's). A
     candidate untested or whose band holds under 3 lines gets ``LR`` 0 and
     p-value 1."""
     omega, zeta = np.asarray(omega, float), np.abs(np.asarray(zeta, float))
+    wide = zeta if wide is None else np.abs(np.asarray(wide, float))
     n = min(y.shape[1] for y in records)
     T = n * dt
     lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
@@ -162,8 +168,8 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
     stat, pvalue = np.zeros(k), np.ones(k)
     summed = summed_periodogram(records) if summed is None else summed
     for c in range(k) if which is None else which:
-        z = max(zeta[c], 1e-6)
-        half = float(half_width(omega[c : c + 1], zeta[c : c + 1], T)[0])
+        z = max(wide[c], 1e-6)
+        half = float(half_width(omega[c : c + 1], wide[c : c + 1], T)[0])
         lines_in = band(summed, lines, omega[c], half)
         if lines_in is None:
             continue
