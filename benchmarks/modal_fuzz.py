@@ -102,7 +102,11 @@ looked at; all 1,000 run in its checks):
 
     python benchmarks/modal_fuzz.py --kind unseen --first 900000 --seeds 1000
 
-Seeds 1,000,000 and above have never been run.
+Seeds 1,000,000-1,000,999 were fresh for the check of the final code
+(d133467, after the eleventh and twelfth rounds; run once: 1000 records,
+22 refused, 0 crashed, 0 invented modes, coverage 94.8 / 93.7 %,
+supported modes found 81.3 %; no record looked at). Seeds 1,001,000 and
+above have never been run.
 """
 from __future__ import annotations
 
