@@ -15,9 +15,8 @@ covariances carry estimation noise of relative size about ``1 / sqrt(zeta
 omega T)`` (``T`` s of record; the relative standard error of a random
 response's damping estimate is of that size), so a mode's poles wander
 between neighbouring orders by more than a free decay's do, and at 1 % and
-0.1 a mode of a short record is stable at too few orders to be found (on
-tuning records of benchmarks/modal_fuzz.py's held-out profile, issue 21
-eleventh round). A mode stable within the strict tolerances at enough
+0.1 a mode of a short record is stable at too few orders to be found
+(docs/modal-method.md, twelfth round). A mode stable within the strict tolerances at enough
 orders is then estimated from those poles alone (its estimates and
 errors as before), while its support and share of stable orders count
 all its poles; only a mode found through the loose ones alone is

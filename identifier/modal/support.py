@@ -86,11 +86,14 @@ coherence under ``COHERENT`` (its observability vectors only loosely the
 geometric sequence of its eigenvalue) must show a spectral peak of its own
 like a weak candidate below (:func:`identifier.modal.peak_pairs.screen`):
 a cluster of covariance-noise poles stable enough to form a mode reaches a
-coherence of 0.6-0.8 but holds no peak (issue 21, eleventh round). Of two
-candidates the record does not resolve (as for duplicates below), one
-under ``COHERENT``, the less coherent is dropped as a duplicate whatever
-its shape: noise poles stable at most orders beside a mode (kept by the
-stabilisation's ``STEADY`` rule at any coherence) share its peak. A mode stable at under ``MIN_STABLE`` of the model orders
+coherence of 0.6-0.8 but holds no peak (docs/modal-method.md, twelfth
+round). Of two candidates the record does not resolve (as for duplicates
+below), one under ``COHERENT``, the less coherent is dropped as a
+duplicate whatever its shape: noise poles stable at most orders beside a
+mode (kept by the stabilisation's ``STEADY`` rule at any coherence) share
+its peak.
+
+A mode stable at under ``MIN_STABLE`` of the model orders
 (:mod:`identifier.modal.stabilisation` asks ``min_fraction`` of every
 candidate) is reported only when the record pins it down,
 
