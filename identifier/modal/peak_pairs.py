@@ -269,9 +269,9 @@ def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         return
     summed = peak_test.summed_periodogram(records)
     like = alike(scaled)
+    half = peak_test.half_width(omega, top, min(y.shape[1] for y in records) * dt)  # at zeta_top
     for i in faint:
         high = np.where(np.arange(omega.size) == i, top, zeta)
-        half = peak_test.half_width(omega, high, min(y.shape[1] for y in records) * dt)
 
         def test(spectrum: np.ndarray) -> tuple[float, float]:
             found = [peak_test.peak_lr(records, dt, omega, zeta, [i], excluded={i: dropped}, summed=spectrum,

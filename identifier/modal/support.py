@@ -290,9 +290,10 @@ def _weak(zeta: np.ndarray, zeta_std: np.ndarray, stable: np.ndarray, coherence:
     coherence under ``COHERENT``), NaN elsewhere, and why it must."""
     top = np.abs(zeta) + UNDAMPED * np.where(np.isfinite(zeta_std), zeta_std, 0.0)
     undamped = (np.abs(zeta) < UNDAMPED * zeta_std) & ((stable < MIN_STABLE) | (top <= peak_test.CUT))
-    loose = np.zeros_like(undamped) if coherence is None else np.asarray(coherence, float) < COHERENT
+    coherence = np.ones(zeta.size) if coherence is None else np.asarray(coherence, float)
+    loose = coherence < COHERENT
     why = ["damping not told from 0" if u else f"temporal coherence {c:.2f} (under {COHERENT:g})" if lo else ""
-           for u, lo, c in zip(undamped, loose, coherence if coherence is not None else np.ones(zeta.size))]
+           for u, lo, c in zip(undamped, loose, coherence)]
     return np.where(undamped | loose, top, np.nan), why
 
 
