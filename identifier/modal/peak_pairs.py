@@ -81,9 +81,9 @@ the upper end of its damping interval too (tuning seeds 900714 and
 damping).
 
 Weak candidates (last, :func:`_faint`; :mod:`identifier.modal.support`
-names them: damping within 1.96 standard errors of zero, and stable at
-under half the model orders or with the upper end ``zeta_top = |zeta| +
-1.96 zeta_std`` of the damping interval at most ``peak_test.CUT``) need a
+names them: damping within 1.96 standard errors of zero, or temporal
+coherence under its ``COHERENT``; ``zeta_top = |zeta| + 1.96 zeta_std``,
+the upper end of the damping interval) need a
 peak of their own in the summed periodogram or in the channels projected
 on their own unit shape (``|u_c^H Y_k|^2``, which shows a weak mode the
 summed periodogram hides under other shapes' response), each by

@@ -58,7 +58,6 @@ LOOSE = 0.005  # ... at least this share of omega
 MIN_LINES = 32  # ... and this many lines
 ZETA_STEPS = (0.5, 1.0, 2.0, 4.0, 8.0)  # damping ratios tried, x SSI's
 MAX_BLOCKS = 512  # the band's lines are averaged in at most this many blocks
-CUT = 0.5 / HALF_WIDTHS  # damping ratio above which the band is cut at omega / 2: it misses the peak's skirts
 
 
 def peak_shape(omega: np.ndarray, w0: float, zeta: float) -> np.ndarray:

@@ -115,14 +115,14 @@ zeta_std``, the 95 % interval) must show a spectral peak of its own
 (stationary records; :mod:`identifier.modal.peak_pairs`, weak
 candidates): SSI fits lightly damped poles to broadband noise above the
 highest mode (an acceleration channel's force feed-through), precise to
-under ``LOOSE`` but without a peak. So must such a candidate stable at
-``MIN_STABLE`` of the orders or more when the upper end ``|zeta| +
-UNDAMPED zeta_std`` of its interval is at most ``peak_test.CUT`` (0.05,
-where the test's band ``10 zeta omega`` reaches its cap ``omega / 2``):
-noise poles stable at 51-74 % of the orders, damping not told from zero
-and no peak, beside or between true modes (issue 21, eighth round). Over
-``CUT`` the band is cut and misses the skirts of a heavily damped true
-mode, which then shows no peak: not tested.
+under ``LOOSE`` but without a peak. So must such a candidate however
+stable it is and however wide its damping interval: noise poles stable at
+most orders, damping not told from zero and no peak, lie beside or
+between true modes, or above them in a short record (issue 21, eighth
+and thirteenth rounds, docs/modal-method.md). A heavily damped true mode
+whose damping the record does not tell from zero and whose peak the
+test's band (cut at ``omega / 2``) or a neighbour's term hides is listed
+apart with that reason.
 
 Short-record bias. In a stationary random response of ``T`` seconds the
 covariance estimates ``R_l`` of a mode of decay rate ``sigma = zeta omega``
@@ -159,7 +159,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
-from . import peak_pairs, peak_test
+from . import peak_pairs
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -252,7 +252,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
-        top, why = _weak(zeta, zeta_std, np.asarray(stable), coherence)
+        top, why = _weak(zeta, zeta_std, coherence)
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
                           reasons, top, why, np.abs(zeta) >= UNDAMPED * zeta_std)
     keep = np.array([not r for r in reasons], dtype=bool)
@@ -281,15 +281,13 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     return Verdict(keep, reasons)
 
 
-def _weak(zeta: np.ndarray, zeta_std: np.ndarray, stable: np.ndarray, coherence: np.ndarray | None
-          ) -> tuple[np.ndarray, list[str]]:
+def _weak(zeta: np.ndarray, zeta_std: np.ndarray, coherence: np.ndarray | None) -> tuple[np.ndarray, list[str]]:
     """Per candidate (k,) the upper end ``|zeta| + UNDAMPED zeta_std`` of its
     damping interval where it must show a spectral peak (module docstring:
-    damping not told from zero, and stable at under ``MIN_STABLE`` of the
-    orders or with that upper end under ``peak_test.CUT``; or temporal
-    coherence under ``COHERENT``), NaN elsewhere, and why it must."""
+    damping not told from zero, or temporal coherence under ``COHERENT``),
+    NaN elsewhere, and why it must."""
     top = np.abs(zeta) + UNDAMPED * np.where(np.isfinite(zeta_std), zeta_std, 0.0)
-    undamped = (np.abs(zeta) < UNDAMPED * zeta_std) & ((stable < MIN_STABLE) | (top <= peak_test.CUT))
+    undamped = np.abs(zeta) < UNDAMPED * zeta_std
     coherence = np.ones(zeta.size) if coherence is None else np.asarray(coherence, float)
     loose = coherence < COHERENT
     why = ["damping not told from 0" if u else f"temporal coherence {c:.2f} (under {COHERENT:g})" if lo else ""
