@@ -220,7 +220,9 @@ def unseen_record(seed: int) -> dict:
     (m, n), ``quantities`` (m,), ``noise`` (m,) noise standard deviations,
     ``dt`` s, ``omega`` (p,) rad/s, ``zeta`` (p,), ``kind`` (``random`` or
     ``decay``) and per mode ``snr`` (p,) and ``periods`` and ``decays`` in the
-    record.
+    record; for oracles (benchmarks/modal_fuzz_ceiling.py): ``shapes`` (m, p),
+    ``sizes`` (p,) (the force's standard deviation per sample, or the initial
+    state's scale) and ``parts`` (quantity -> (p, n) noise-free modal signals).
 
     Each mode ``q'' + 2 zeta omega q' + omega^2 q = f`` is discretised
     exactly (zero-order hold, :func:`modal_synth._mode_filter`): random: ``f``
@@ -250,9 +252,10 @@ def unseen_record(seed: int) -> dict:
     quantities = rng.choice(QUANTITIES, m)
     lead = 0 if kind == "decay" else int(min(5 / (zeta * omega).min() / dt, 4 * n))
     q, v, a = (np.zeros((p, n)) for _ in range(3))
+    sizes = np.zeros(p)
     for r in range(p):
         Ad, Bd = _mode_filter(omega[r], zeta[r], dt)
-        size = np.exp(rng.uniform(0.0, np.log(100.0)))
+        size = sizes[r] = np.exp(rng.uniform(0.0, np.log(100.0)))
         if kind == "random":
             f = size * rng.standard_normal(lead + n)
             den = np.poly(Ad)
@@ -279,7 +282,8 @@ def unseen_record(seed: int) -> dict:
     snr = np.sum(contribution * span[None, :] / dt
                  / (np.maximum(noise, 1e-300)[:, None] ** 2 * (span * band / np.pi)[None, :]), axis=0)
     return {"y": y, "quantities": list(quantities), "noise": noise, "dt": dt, "omega": omega, "zeta": zeta,
-            "kind": kind, "snr": snr, "periods": omega * T / (2 * np.pi), "decays": zeta * omega * T}
+            "kind": kind, "snr": snr, "periods": omega * T / (2 * np.pi), "decays": zeta * omega * T,
+            "shapes": shapes, "sizes": sizes, "parts": parts}
 
 
 def unseen_trace(rec: dict) -> Trace:
