@@ -23,9 +23,11 @@ under H1 with ``E = sum_i sum_t s_i(t)^2 / noise_i^2``:
 ``thr = -2 ln alpha``, ``P_detect = ncx2.sf(thr, 2, E)``.
 
 Random response (Whittle approximation: DFT lines ``k = 1 .. n/2 - 1``
-independent, ``y_k ~ CN(0, R_k)``; fails for modes narrower than a few
-lines, which the 5 decay times of a supported mode keep to about 1.6 lines
-or more): ``R_k = sum_r size_r^2 g_rk g_rk^H + diag(noise^2)``, ``g_rk,i =
+independent, ``y_k ~ CN(0, R_k)``; asymptotic in the record length, checked
+against the exact time-domain test on exact stationary covariances in
+tests/test_modal_fuzz_ceiling.py and docs/modal-method.md, Ceiling; it
+describes the information in the record, not the rectangular-window DFT,
+whose leakage from strong modes a real test would have to taper): ``R_k = sum_r size_r^2 g_rk g_rk^H + diag(noise^2)``, ``g_rk,i =
 shapes[i, r] H_{quantity_i, r}(exp(j theta_k))``, the discrete transfer
 functions of unseen_record's filters from the white force (variance
 ``size_r^2``) to q and v, and ``H_a = 1 - 2 zeta omega H_v - omega^2 H_q``.
