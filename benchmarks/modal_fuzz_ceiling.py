@@ -105,7 +105,8 @@ def tail(weights: np.ndarray, x: float) -> float:
 
 
 def quantile(weights: np.ndarray, alpha: float) -> float:
-    """The ``x`` with ``tail(weights, x) = alpha`` (``alpha < 0.4``), solved in
+    """The ``x`` with ``tail(weights, x) = alpha`` (``alpha <= 0.3``; above it no
+    bracket: ValueError), solved in
     the saddle point ``s`` (``x = K'(s)``) so that each step is closed-form."""
     c = float(np.max(weights))
     v = weights / c
