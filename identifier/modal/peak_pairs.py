@@ -176,9 +176,10 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
         return 0.0, 1.0, a
     P, w, size = lines_in
     x = (w - centre) / half
-    others = [peak_shape(w, omega[j], z[j]) for j in range(omega.size)
+    others = [term for j in range(omega.size)
               if j not in (a, b) and j not in excluded
-              and all(abs(omega[j] - omega[c]) > z[j] * omega[j] + z[c] * omega[c] for c in (a, b))]
+              and all(abs(omega[j] - omega[c]) > z[j] * omega[j] + z[c] * omega[c] for c in (a, b))
+              for term in peak_test.neighbour_terms(w, omega[j], z[j])]
     X0 = np.column_stack([1.0 - x, 1.0 + x] + others)
     _, a0 = whittle(P, X0, size)
 

@@ -14,12 +14,16 @@ over the blocks of the candidate's band ``|omega - omega_c| <= h``,
 ``h = min(max(HALF_WIDTHS zeta_c omega_c, LOOSE omega_c, MIN_LINES 2 pi / T), omega_c / 2)``.
 Two models of the band's spectrum, non-negative sums of non-negative terms:
 
-    S0 = a_- (1 - x) + a_+ (1 + x) + sum_j a_j L(omega; omega_j, zeta_j)    (x = (omega - omega_c) / h)
+    S0 = a_- (1 - x) + a_+ (1 + x) + sum_j sum_q a_jq L(omega; omega_j, zeta_j) (omega / omega_j)^2q
     S1 = S0 + a_c L(omega; omega_c, zeta'),   L = 1 / ((w_0^2 - omega^2)^2 + (2 zeta w_0 omega)^2)
 
-(``j``: the other candidates that the band does not leave unresolved,
-``|omega_j - omega_c| > zeta_j omega_j + zeta_c omega_c``; a linear
-oscillator's response spectrum is ``L`` at its pole), each fitted by
+(``x = (omega - omega_c) / h``; ``j``: the other candidates that the band
+does not leave unresolved, ``|omega_j - omega_c| > zeta_j omega_j +
+zeta_c omega_c``; a linear oscillator's displacement spectrum is ``L`` at
+its pole, its velocity's and acceleration's ``L omega^2`` and ``L
+omega^4``, ``q`` in ``NEIGHBOUR_QUANTITIES``: a neighbour's skirt, flat
+above an acceleration's mode, is not taken for the candidate's peak),
+each fitted by
 Whittle maximum likelihood (iteratively reweighted non-negative least
 squares, ``S1`` started from ``S0``'s fit), and ``LR = 2 (log L1 - log
 L0)``, the largest over ``zeta' = zeta_c`` times each of ``ZETA_STEPS``
@@ -58,11 +62,20 @@ LOOSE = 0.005  # ... at least this share of omega
 MIN_LINES = 32  # ... and this many lines
 ZETA_STEPS = (0.5, 1.0, 2.0, 4.0, 8.0)  # damping ratios tried, x SSI's
 MAX_BLOCKS = 512  # the band's lines are averaged in at most this many blocks
+NEIGHBOUR_QUANTITIES = (0, 1, 2)  # a neighbour's terms in S0: displacement, velocity, acceleration (x omega^2q)
 
 
 def peak_shape(omega: np.ndarray, w0: float, zeta: float) -> np.ndarray:
     """A linear oscillator's response spectrum ``L`` (module docstring) at ``omega`` (k,) rad/s, up to scale."""
     return 1.0 / ((w0**2 - omega**2) ** 2 + (2.0 * zeta * w0 * omega) ** 2)
+
+
+def neighbour_terms(omega: np.ndarray, w0: float, zeta: float) -> list[np.ndarray]:
+    """A neighbour's columns of ``S0`` (module docstring) at ``omega`` (k,)
+    rad/s: ``L (omega / w0)^2q`` at its pole ``w0`` rad/s, damping ratio
+    ``zeta``, ``q`` each of ``NEIGHBOUR_QUANTITIES``."""
+    shape = peak_shape(omega, w0, zeta)
+    return [shape * (omega / w0) ** (2 * q) for q in NEIGHBOUR_QUANTITIES]
 
 
 def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None = None,
@@ -175,8 +188,9 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
         P, w, size = lines_in
         x = (w - omega[c]) / half
         far = (excluded or {}).get(c, [])
-        others = [peak_shape(w, omega[j], max(zeta[j], 1e-6)) for j in range(k)
-                  if j != c and j not in far and abs(omega[j] - omega[c]) > zeta[j] * omega[j] + zeta[c] * omega[c]]
+        others = [term for j in range(k)
+                  if j != c and j not in far and abs(omega[j] - omega[c]) > zeta[j] * omega[j] + zeta[c] * omega[c]
+                  for term in neighbour_terms(w, omega[j], max(zeta[j], 1e-6))]
         X0 = np.column_stack([1.0 - x, 1.0 + x] + others)
         base, a0 = whittle(P, X0, size)
         best = base
