@@ -82,7 +82,7 @@ damping).
 
 Weak candidates (last, :func:`_faint`; :mod:`identifier.modal.support`
 names them: damping within 1.96 standard errors of zero, or temporal
-coherence under its ``COHERENT``; ``zeta_top = |zeta| + 1.96 zeta_std``,
+coherence under ``support.COHERENT``; ``zeta_top = |zeta| + 1.96 zeta_std``,
 the upper end of the damping interval) need a
 peak of their own in the summed periodogram or in the channels projected
 on their own unit shape (``|u_c^H Y_k|^2``, which shows a weak mode the
