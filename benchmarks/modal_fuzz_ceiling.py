@@ -68,8 +68,8 @@ import numpy as np
 from scipy import optimize, stats
 
 sys.path.insert(0, str(Path(__file__).parent))
-from modal_fuzz import unseen_record  # noqa: E402
-from modal_synth import _mode_filter  # noqa: E402
+from modal_fuzz import supported, unseen_record  # noqa: E402
+from modal_synth import mode_transfer  # noqa: E402
 
 SETTINGS = ((1e-3, False), (1e-2, False), (1e-3, True), (1e-2, True))  # (alpha_record, frequency known)
 GROUPS = (("1", 1, 1), ("2-5", 2, 5), ("6+", 6, 10**9))  # sensor-count classes (name, lowest, highest)
@@ -125,11 +125,8 @@ def decay_energy(rec: dict) -> np.ndarray:
 def transfer(omega: float, zeta: float, dt: float, theta: np.ndarray) -> dict[str, np.ndarray]:
     """``H_q``, ``H_v``, ``H_a`` (K,) of one mode from its white force at
     ``exp(j theta)`` (theta (K,) rad/sample), unseen_record's filters."""
-    Ad, Bd = _mode_filter(omega, zeta, dt)
-    zi = np.exp(-1j * theta)
-    den = np.polyval(np.poly(Ad)[::-1], zi)
-    hq = np.polyval(np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]][::-1], zi) / den
-    hv = np.polyval(np.r_[0.0, Bd[1], Ad[1, 0] * Bd[0] - Ad[0, 0] * Bd[1]][::-1], zi) / den
+    num_q, num_v, den = (np.polyval(c[::-1], np.exp(-1j * theta)) for c in mode_transfer(omega, zeta, dt))
+    hq, hv = num_q / den, num_v / den
     return {"displacement": hq, "velocity": hv, "acceleration": 1.0 - 2 * zeta * omega * hv - omega**2 * hq}
 
 
@@ -176,11 +173,10 @@ def detect(rec: dict, alpha_record: float, known: bool) -> np.ndarray:
 def ceiling(seed: int) -> dict:
     """One held-out record's supported modes and their P_detect (one array per setting)."""
     rec = unseen_record(seed)
-    supported = (rec["periods"] >= 20) & (rec["decays"] >= 5) & (rec["snr"] >= 1)
-    detected = []
-    for alpha_record, known in SETTINGS:
-        detected.append(detect(rec, alpha_record, known)[supported] if supported.any() else np.zeros(0))
-    return {"seed": seed, "kind": rec["kind"], "sensors": rec["y"].shape[0], "supported": int(supported.sum()),
+    held = supported(rec)
+    detected = [detect(rec, alpha_record, known)[held] if held.any() else np.zeros(0)
+                for alpha_record, known in SETTINGS]
+    return {"seed": seed, "kind": rec["kind"], "sensors": rec["y"].shape[0], "supported": int(held.sum()),
             "p": detected}
 
 

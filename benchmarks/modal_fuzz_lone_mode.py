@@ -18,11 +18,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).parent))
 from modal_fuzz import unseen_trace  # noqa: E402
-from modal_synth import _mode_filter  # noqa: E402
+from modal_synth import forced  # noqa: E402
 
 from structbench.identifier import modal  # noqa: E402
 
@@ -32,12 +31,8 @@ OMEGA, ZETA, DT, NOISE = 8.171, 0.002, 0.2527, 1e-3
 def record(seed: int, n: int) -> dict:
     """The record of one seed: ``y`` (2, n) velocity and displacement, as :func:`modal_fuzz.unseen_trace` takes it."""
     rng = np.random.default_rng(seed)
-    Ad, Bd = _mode_filter(OMEGA, ZETA, DT)
     lead = int(min(5 / (ZETA * OMEGA) / DT, 4 * n))
-    f = rng.standard_normal(lead + n)
-    den = np.poly(Ad)
-    q = lfilter(np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]], den, f)[lead:]
-    v = lfilter(np.r_[0.0, Bd[1], Ad[1, 0] * Bd[0] - Ad[0, 0] * Bd[1]], den, f)[lead:]
+    q, v = (x[lead:] for x in forced(OMEGA, ZETA, DT, rng.standard_normal(lead + n)))
     clean = np.vstack([v, q])
     noise = NOISE * np.sqrt(np.mean(clean**2, axis=1))
     return {"y": clean + noise[:, None] * rng.standard_normal(clean.shape), "quantities": ["velocity", "displacement"],

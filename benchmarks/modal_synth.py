@@ -27,6 +27,23 @@ def _mode_filter(omega: float, zeta: float, dt: float) -> tuple[np.ndarray, np.n
     return big[:2, :2], big[:2, 2]
 
 
+def mode_transfer(omega: float, zeta: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One mode's zero-order-hold filters from its force (``lfilter``
+    coefficients, (3,) each): the numerators to ``q`` and ``q'`` and their
+    common denominator, from :func:`_mode_filter`'s ``x_{k+1} = Ad x_k + Bd f_k``."""
+    Ad, Bd = _mode_filter(omega, zeta, dt)
+    return (np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]],
+            np.r_[0.0, Bd[1], Ad[1, 0] * Bd[0] - Ad[0, 0] * Bd[1]], np.poly(Ad))
+
+
+def forced(omega: float, zeta: float, dt: float, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``q`` and ``q'`` (n,) of one mode ``q'' + 2 zeta omega q' + omega^2 q
+    = f`` from rest under the force samples ``f`` (n,) held over each step
+    of ``dt`` s."""
+    num_q, num_v, den = mode_transfer(omega, zeta, dt)
+    return lfilter(num_q, den, f), lfilter(num_v, den, f)
+
+
 def modal_response(model, dt: float, n: int, node: int, impulse: float = 0.0,
                    force: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Displacement, velocity, acceleration (n, n_dof) of a modal model
@@ -37,16 +54,11 @@ def modal_response(model, dt: float, n: int, node: int, impulse: float = 0.0,
     qd = np.zeros_like(q)
     f = np.zeros(n) if force is None else np.asarray(force, dtype=float)
     for r, (w, z) in enumerate(zip(model.omega, model.zeta)):
-        Ad, Bd = _mode_filter(w, z, dt)
-        # x_{k+1} = Ad x_k + Bd u_k as two IIR filters of u (transfer functions to q and q') plus the free decay
-        x0 = np.array([0.0, load[r] * impulse])
-        u = load[r] * f
-        den = np.poly(Ad)
-        num_q = np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]]
-        num_v = np.r_[0.0, Bd[1], Ad[1, 0] * Bd[0] - Ad[0, 0] * Bd[1]]
-        free = _free(Ad, x0, n)
-        q[:, r] = lfilter(num_q, den, u) + free[:, 0]
-        qd[:, r] = lfilter(num_v, den, u) + free[:, 1]
+        # the forced response (two IIR filters of the force) plus the free decay from the impulse
+        free = _free(_mode_filter(w, z, dt)[0], np.array([0.0, load[r] * impulse]), n)
+        q[:, r], qd[:, r] = forced(w, z, dt, load[r] * f)
+        q[:, r] += free[:, 0]
+        qd[:, r] += free[:, 1]
     acc = -(q * model.omega**2 + qd * 2 * model.zeta * model.omega) + np.outer(f, load)
     return {"displacement": q @ shapes.T, "velocity": qd @ shapes.T, "acceleration": acc @ shapes.T}
 

@@ -193,10 +193,7 @@ def test_random_record_of_few_periods_reports_nothing_it_cannot_support():
     omega, zeta, dt, n = np.array([0.6, 3.7, 20.2]), np.array([0.0004, 0.003, 0.03]), 0.02, 1000
     q = []
     for w, z in zip(omega, zeta):
-        Ad, Bd = modal_fuzz._mode_filter(w, z, dt)
-        den = np.poly(Ad)
-        q.append(modal_fuzz.lfilter(np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]], den,
-                                    rng.standard_normal(n)))
+        q.append(modal_fuzz.forced(w, z, dt, rng.standard_normal(n))[0])
     y = rng.standard_normal((6, 3)) @ np.array(q)
     result = modal.identify([modal_fuzz.trace(y, dt)])
     assert all(abs(w - omega[:2]).min() > 0.05 * w for w in result.omega)

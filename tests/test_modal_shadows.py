@@ -7,8 +7,7 @@ acceleration spectrum with a pole better supported than the mode's own
 from __future__ import annotations
 
 import numpy as np
-from modal_synth import _mode_filter
-from scipy.signal import lfilter
+from modal_synth import forced
 
 from structbench.identifier.modal.support import judge
 
@@ -21,13 +20,10 @@ def _acceleration(rng: np.random.Generator, modes: list[tuple[float, float, floa
     early), ``noise`` x its RMS of white sensor noise."""
     y = np.zeros(N)
     for omega, zeta, size in modes:
-        Ad, Bd = _mode_filter(omega, zeta, DT)
         lead = int(5 / (zeta * omega) / DT)
         f = size * rng.standard_normal(lead + N)
-        den = np.poly(Ad)
-        q = lfilter(np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]], den, f)[lead:]
-        v = lfilter(np.r_[0.0, Bd[1], Ad[1, 0] * Bd[0] - Ad[0, 0] * Bd[1]], den, f)[lead:]
-        y += f[lead:] - 2 * zeta * omega * v - omega**2 * q
+        q, v = forced(omega, zeta, DT, f)
+        y += (f - 2 * zeta * omega * v - omega**2 * q)[lead:]
     return (y + noise * y.std() * rng.standard_normal(N))[None, :]
 
 

@@ -6,8 +6,7 @@ projected chance (tuning seed 900959, issue 21's eleventh round)."""
 from __future__ import annotations
 
 import numpy as np
-from modal_synth import _mode_filter
-from scipy.signal import lfilter
+from modal_synth import forced
 
 from structbench.identifier.modal.support import judge
 
@@ -22,10 +21,8 @@ def _record(rng: np.random.Generator, modes: list[tuple[float, float]], shapes: 
     started 5 decay times early), 2 % sensor noise."""
     y = np.zeros((shapes.shape[0], N))
     for (w, z), phi in zip(modes, shapes.T):
-        Ad, Bd = _mode_filter(w, z, DT)
         lead = int(5 / (z * w) / DT)
-        q = lfilter(np.r_[0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]], np.poly(Ad),
-                    rng.standard_normal(lead + N))[lead:]
+        q = forced(w, z, DT, rng.standard_normal(lead + N))[0][lead:]
         y += np.outer(phi, q / q.std())
     return y + 0.02 * y.std(axis=1, keepdims=True) * rng.standard_normal(y.shape)
 

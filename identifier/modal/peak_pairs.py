@@ -202,8 +202,8 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray | None = None,
-           why: list[str] | None = None, settled: np.ndarray | None = None) -> None:
+           support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray, why: list[str],
+           settled: np.ndarray) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
@@ -214,17 +214,17 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     ``weak`` (k,): for each candidate that needs a peak too (:func:`_faint`)
     the upper end of its damping interval, NaN for the others; ``why``
     (k,): the reason it needs one, which its rejection names; ``settled``
-    (k,) bool: damping told from zero (:func:`shadows`), none when None."""
+    (k,) bool: damping told from zero (:func:`shadows`)."""
     k = omega.size
     if k == 0:
         return
     open_ = [i for i in range(k) if not reasons[i]]
     dropped: set[int] = set()
+    n = min(y.shape[1] for y in records)
+    summed = peak_test.summed_periodogram(records)  # every test below reads it
     found = pairs(omega, zeta, scaled, open_) if k > 1 else []
     if found:
-        n = min(y.shape[1] for y in records)
         T = n * dt
-        summed = peak_test.summed_periodogram(records)
         lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
         for a, b in found:
             if a in dropped or b in dropped:
@@ -238,29 +238,28 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
                                  f"{pvalue:.2g}; needs under {peak_test.ALPHA:g})")
     _apart(records, dt, omega, zeta, omega_std, support, scaled, reasons, open_, dropped)
     open_ = [i for i in open_ if not reasons[i]]
-    shadowed = shadows(omega, zeta, np.asarray(support), scaled, min(y.shape[1] for y in records) * dt,
-                       np.zeros(k, bool) if settled is None else settled)
+    shadowed = shadows(omega, zeta, np.asarray(support), scaled, n * dt, settled)
     shadowed[:, sorted(dropped)] = False  # a rejected partner shadows nothing
     doubted = [i for i in open_ if i not in dropped and shadowed[i].any()]
     if doubted:
         stat, pvalue = peak_test.peak_lr(records, dt, omega, zeta, doubted,
-                                         excluded={i: sorted(dropped) for i in doubted})
+                                         excluded={i: sorted(dropped) for i in doubted}, summed=summed)
         for i in doubted:
             if pvalue[i] >= peak_test.ALPHA:
                 reasons[i] = (f"no spectral peak of its own (likelihood ratio {stat[i]:.3g}, p-value "
                               f"{pvalue[i]:.2g} over the record's bands; needs under {peak_test.ALPHA:g})")
-    if weak is not None:
-        _faint(records, dt, omega, zeta, weak, scaled, reasons,
-               [i for i in open_ if not reasons[i] and np.isfinite(weak[i])], sorted(dropped),
-               why or ["damping not told from 0"] * k)
+    _faint(records, dt, summed, omega, zeta, weak, scaled, reasons,
+           [i for i in open_ if not reasons[i] and np.isfinite(weak[i])], sorted(dropped), why)
 
 
-def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, top: np.ndarray,
-           scaled: np.ndarray, reasons: list[str], faint: list[int], dropped: list[int], why: list[str]) -> None:
+def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.ndarray, zeta: np.ndarray,
+           top: np.ndarray, scaled: np.ndarray, reasons: list[str], faint: list[int], dropped: list[int],
+           why: list[str]) -> None:
     """The weak-candidate test (module docstring): each candidate of
     ``faint`` needs a peak of its own in the summed periodogram or in the
-    channels projected on its own shape (``scaled`` (m, k), unit-RMS
-    channels), tested at SSI's damping ``zeta`` and at ``top`` (k,), the
+    channels projected on its own shape (``summed``: the records' summed
+    periodogram, :func:`identifier.modal.peak_test.summed_periodogram`;
+    ``scaled`` (m, k), unit-RMS channels), tested at SSI's damping ``zeta`` and at ``top`` (k,), the
     upper end of its damping interval (p-value the smaller of the two
     times 2; the neighbours resolved at ``zeta``), the projected chance
     only for a shape ``APART`` from the other-shaped candidates in its
@@ -268,7 +267,6 @@ def _faint(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     the reason each needs a peak."""
     if not faint:
         return
-    summed = peak_test.summed_periodogram(records)
     like = alike(scaled)
     half = peak_test.half_width(omega, top, min(y.shape[1] for y in records) * dt)  # at zeta_top
     for i in faint:
