@@ -41,11 +41,13 @@ def test_noise_poles_of_a_long_quiet_decay_are_not_modes(quiet, seed):
 
 def test_without_the_coherence_test_noise_poles_are_reported(quiet, monkeypatch):
     """The same record with the coherence threshold at 0 (and the
-    matched-filter test of identifier/modal/decay_snr.py off, which refuses
-    these noise poles of a free decay too): the noise poles pass
-    stabilisation and the jackknife and come out as modes."""
+    matched-filter test of identifier/modal/decay_snr.py and the free-decay
+    pair test of identifier/modal/decay_pairs.py off, which refuse these
+    noise poles of a free decay too): the noise poles pass stabilisation
+    and the jackknife and come out as modes."""
     monkeypatch.setattr(modal, "COHERENCE", 0.0)
     monkeypatch.setattr(modal.decay_snr, "screen", lambda records, dt, omega, zeta, verdict, others, **_: verdict)
+    monkeypatch.setattr(modal.decay_pairs, "screen", lambda traces, records, dt, ml, rejected, refine: (ml, []))
     result = modal.identify([modal_fuzz.trace(quiet[1], DT)])
     assert len(result.omega) > 5
     assert min(result.details["coherence"]) < 0.3

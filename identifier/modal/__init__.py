@@ -8,9 +8,8 @@ Steps (each its own module):
    records; after step 3, SSI modes of near-zero damping at their orders
    whose band kurtosis is low are dropped too (and the other tests of
    :func:`identifier.modal.harmonics.confirm`); when these find any, the
-   record is identified again with them subtracted as well, since each
-   took model orders from the modes. All are listed in
-   ``details["harmonics"]``, never among the modes;
+   record is identified again with them subtracted as well, since each took
+   model orders from the modes. All are in ``details["harmonics"]``, never among the modes;
 1. lagged output covariances ``R_l = <y_{k+l} y_ref,k^T>``, l >= 1, summed per
    sample group by FFT (:mod:`identifier.modal.ssi.covariance`); white sensor noise
    only enters ``R_0``, which is not used. Lags 1 .. p + q - 1 with ``p`` block
@@ -55,9 +54,9 @@ Steps (each its own module):
    decay times in the record; stable at half the model orders, or
    precise; found again by all jackknife replicates but one; finite standard errors;
    not a duplicate the record does not resolve; in a free response, above
-   the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`).
-   The others, and the
-   candidates of step 3 below ``COHERENCE``, are listed in
+   the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`;
+   in a free decay, needed beside its neighbours, :mod:`identifier.modal.decay_pairs`).
+   The others, and the candidates of step 3 below ``COHERENCE``, are listed in
    ``details["rejected"]`` with their reason; ``details["warnings"]`` says
    when a stationary record is under two periods of its lowest frequency.
 
@@ -105,7 +104,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, with_bias
 from . import harmonics as periodic
-from . import decay_snr, input_output
+from . import decay_pairs, decay_snr, input_output
 from .support import rejected as support_rejected
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
@@ -297,7 +296,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     ml = refine_poles(traces, records, dt, omega, zeta, omega_se, zeta_se, refined,
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
     ml, gone = decay_snr.retest(records, dt, ml, rejected) if decay else (ml, [])  # refined poles vs noise
-    rejected += gone
+    ml, pairs = decay_pairs.screen(traces, records, dt, ml, dropped, refine) if decay else (ml, [])
+    rejected += gone + pairs  # the free-decay pair test: one pole for a broad mode's two
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
     shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS

@@ -115,7 +115,8 @@ class PoleRefinement:
     merger's two by ``omega``): ``omega`` rad/s, ``zeta``, their standard
     errors, ``applied`` (k',) True where they come from the fit, ``source``
     (k',) the input mode each comes from (-1: the second mode of a split
-    merger), and ``details`` (``details["ml_refinement"]`` of the results)."""
+    merger), ``details`` (``details["ml_refinement"]`` of the results) and
+    ``nuisance`` the fit's nuisance poles (complex, 1/s; empty when not applied)."""
 
     omega: np.ndarray
     zeta: np.ndarray
@@ -124,6 +125,7 @@ class PoleRefinement:
     applied: np.ndarray
     source: np.ndarray
     details: dict[str, Any] = field(default_factory=dict)
+    nuisance: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
 
 
 def free_starts(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> list[int] | str:
@@ -152,7 +154,8 @@ def _unchanged(omega, zeta, omega_std, zeta_std, reason: str, ssi: dict | None =
                            "mode_reasons": [reason] * omega.size} | ({"ssi": ssi} if ssi else {}))
 
 
-def _poles(omega: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+def complex_poles(omega: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """``lambda = -zeta omega + i omega sqrt(1 - zeta^2)`` (k,) 1/s of ``omega`` (k,) rad/s, ``zeta`` (k,)."""
     return -zeta * omega + 1j * omega * np.sqrt(np.maximum(1 - zeta**2, 0.0))
 
 
@@ -169,7 +172,7 @@ def nuisance_poles(candidates: Sequence[tuple[float, float]], poles: np.ndarray,
             continue
         if z * w * dt > 0.1:
             continue
-        lam = _poles(np.array([w]), np.array([z]))[0]
+        lam = complex_poles(np.array([w]), np.array([z]))[0]
         if all(abs(lam.imag - p.imag) > 2 * np.pi / span - lam.real - p.real for p in kept):
             kept.append(lam)
             out.append(lam)
@@ -200,7 +203,7 @@ def _weighted(data: _Data, rank: int, budget: int) -> tuple[list[np.ndarray], li
     return ts, zs, cut
 
 
-def _bounds(free: np.ndarray, fixed: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def pole_bounds(free: np.ndarray, fixed: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Per free pole (at its anchor ``free``) ``sigma`` within ``[-2 |lambda|,
     -1e-9 |lambda|]`` and ``omega_d`` within half-way to the nearest other pole,
     free or ``fixed`` (and Nyquist)."""
@@ -245,7 +248,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
     if not todo.any():
         return _unchanged(omega, zeta, omega_std, zeta_std, "no mode to refine (close-pair fits, damping "
                           "outside (0, 1))", ssi)
-    poles = _poles(omega, zeta)
+    poles = complex_poles(omega, zeta)
     free_len = [y.shape[1] - s for y, s in zip(records, starts)]
     n = min(max(free_len), int(np.ceil(DECAYS / np.min((zeta * omega)[modelled]) / dt)))
     nuisance = nuisance_poles(candidates, poles[modelled], dt, n * dt)
@@ -270,6 +273,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
     out_w, out_z, out_sw, out_sz = omega.copy(), zeta.copy(), omega_std.copy(), zeta_std.copy()
     applied = np.zeros(k, bool)
     cut, added, split = n, 0, {}
+    kept_nuisance = np.zeros(0, complex)
     with one_blas_thread():
         for round_ in range(ROUNDS):
             active = todo & ~refused
@@ -279,7 +283,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
             fixed = poles[~active & modelled]
             free = np.concatenate([poles[active], nuisance])
             for sweep in range(2):  # weights of the SSI poles, then of the first fit's residual
-                lower, upper = _bounds(np.concatenate([poles[active], nuisance]), fixed, dt)  # SSI's anchor
+                lower, upper = pole_bounds(np.concatenate([poles[active], nuisance]), fixed, dt)  # SSI's anchor
                 ts, zs, cut = _weighted(data, 2 * (free.size + fixed.size) + 2, BUDGET)
                 fitted, cov, ok, edge = fit_poles(ts, zs, fixed, free, lower, upper, watch=p)
                 if not ok:
@@ -329,6 +333,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
                 applied[use] = True
                 split = {int(idx[a]): tuple(float(v[partner[a]]) for v in every)
                          for a in np.flatnonzero(good & (partner >= 0))}
+                kept_nuisance = np.delete(fitted[p:], partner[good & (partner >= 0)] - p)  # not the reported
                 break
             refused[idx[~good]] = True
     for i in np.flatnonzero(todo & ~applied):
@@ -344,7 +349,7 @@ def refine_poles(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: flo
         rows += sorted(pair, key=lambda row: row[1])
     src, w, z, sw, sz, done = (np.array(c) for c in zip(*rows))
     return PoleRefinement(w.astype(float), z.astype(float), sw.astype(float), sz.astype(float), done.astype(bool),
-                          src.astype(int), details)
+                          src.astype(int), details, kept_nuisance)
 
 
 def _partner(every: tuple[np.ndarray, ...], first: int, moved_to: float, i: int, omega: np.ndarray,
