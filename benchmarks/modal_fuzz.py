@@ -116,7 +116,11 @@ of 1,000: 51 and 49 refused, 0 crashed, 1 and 2 invented modes
 (1,002,218, 1,003,257, 1,003,401, all free decays), coverage 95.1 / 94.7 %
 and 95.1 / 94.1 %, supported modes found 83.1 % and 83.5 %); the three
 records were looked at after the figures were written, so they are
-tuning seeds now. Seeds 1,004,000 and above have never been run.
+tuning seeds now. Issue 21's fourteenth round (the free-decay pair test,
+identifier/modal/decay_pairs.py) was designed on 1,003,257 and 1,003,401
+and measured once on the free decays of the tuning seeds
+1,000,000-1,003,999 (docs/modal-method.md, Fourteenth round). Seeds
+1,004,000 and above have never been run.
 """
 from __future__ import annotations
 
