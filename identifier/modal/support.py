@@ -24,6 +24,13 @@ a run add up as independent records):
 - finite errors: ``omega_std`` and ``damping_std`` finite and positive and
   ``omega_std < MAX_RELATIVE omega`` (a pole as uncertain as that is no
   estimate);
+- growing: a damping ratio below zero by more than ``UNDAMPED`` of its
+  standard errors, ``zeta + UNDAMPED zeta_std < 0``, is a pole that grows:
+  no mode of a passive structure (a true mode's interval holds its
+  damping, which is not negative), but the second pole SSI fits beside a
+  heavily damped mode (a free decay of one acceleration sensor, tuning
+  seed 1,004,339: -0.016 +- 0.0024 at 36.9 rad/s beside the true 38.7,
+  ``zeta`` 0.063). Assumes a passive structure;
 - duplicates: two modes whose shapes agree (MAC above ``DUPLICATE_MAC``
   in physical units or in unit-RMS channels: a channel of a large
   quantity that holds little of the mode, e.g. another mode's
@@ -249,6 +256,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             reasons[i] = (f"stable at {stable[i]:.0%} of the model orders (under {MIN_STABLE:.0%}) with "
                           f"omega_std {omega_std[i] / omega[i]:.2g} x omega (at least {LOOSE:g} and "
                           f"{BANDWIDTH:g} zeta)")
+        elif errors and zeta[i] + UNDAMPED * zeta_std[i] < 0:
+            reasons[i] = (f"damping ratio {zeta[i]:.3g} below zero by over {UNDAMPED:g} standard errors "
+                          f"({zeta_std[i]:.2g}): a growing pole, no mode of a passive structure")
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
