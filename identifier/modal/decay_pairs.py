@@ -84,12 +84,28 @@ def _cost(ts: list[np.ndarray], zs: list[np.ndarray], free: np.ndarray, fixed: n
     return VarPro(ts, zs, fixed).state(np.column_stack([fitted.real, fitted.imag]).ravel())[0], fitted, ok
 
 
+def stretch(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, every: np.ndarray, n: int
+            ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The first ``n`` free samples of every trace (``records`` (m, n_r) from
+    ``starts``), grouped by length: times (n_g,) s and channels (n_g, M_g)
+    divided by their noise levels (RMS residual on the poles ``every``,
+    complex 1/s, with offset and drift)."""
+    free_len = [y.shape[1] - s for y, s in zip(records, starts)]
+    ts, zs = [], []
+    for length in sorted({min(f, n) for f in free_len}):
+        y = np.hstack([y[:, s:s + length].T for y, s, f in zip(records, starts, free_len) if min(f, n) == length])
+        t = np.arange(length) * dt
+        ts.append(t)
+        zs.append(y / noise_levels(t, y, basis(t, every)))
+    return ts, zs
+
+
 def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles: np.ndarray,
-            nuisance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            nuisance: np.ndarray, tested: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per reported pole (k,) (complex, 1/s; ``records`` (m, n) per trace from
     ``starts``) the p-value of the F test of the module docstring, before
-    the Bonferroni factor ``k`` (NaN where untested: no neighbour, a fit
-    not converged, too few samples), and the pole to drop when it fails:
+    the Bonferroni factor ``k`` (NaN where untested: not in ``tested`` (all
+    when None), no neighbour, a fit not converged, too few samples), and the pole to drop when it fails:
     itself, or the neighbour whose one-pole fit moved nearer to it (in the
     s-plane) than to the neighbour's own pole (that neighbour took its place)."""
     every = np.concatenate([poles, nuisance])
@@ -97,17 +113,14 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
     order = np.argsort(poles.imag)
     out, drop = np.full(poles.size, np.nan), np.arange(poles.size)
     for rank, b in enumerate(order):
+        if tested is not None and b not in tested:
+            continue
         near = np.delete(order[max(rank - 1, 0):rank + 2], 0 if rank == 0 else 1)
         rest = np.setdiff1d(np.arange(poles.size), np.r_[b, near])
         columns = 2 + 2 * every.size
         slow = -np.max(poles[np.r_[b, near]].real)
         n = int(min(free_len.max(), max(np.ceil(DECAYS / slow / dt), MIN_SAMPLES * columns)))
-        ts, zs = [], []
-        for length in sorted({min(f, n) for f in free_len}):
-            y = np.hstack([y[:, s:s + length].T for y, s, f in zip(records, starts, free_len) if min(f, n) == length])
-            t = np.arange(length) * dt
-            ts.append(t)
-            zs.append(y / noise_levels(t, y, basis(t, every)))
+        ts, zs = stretch(records, starts, dt, every, n)
         m = sum(z.shape[1] for z in zs)
         nu = sum(z.size for z in zs) - m * columns - 2 * (1 + near.size)
         if nu <= 0:
