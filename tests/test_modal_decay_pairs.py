@@ -81,9 +81,10 @@ def test_a_true_third_mode_is_kept(seed):
     assert ml.omega.size == 3 and not gone
 
 
-@pytest.mark.parametrize("seed, lost, found", [(1_003_401, 142.42, 1), (1_003_257, 109.75, 2)])
+@pytest.mark.parametrize("seed, lost, found", [(1_003_401, 142.42, 1), (1_003_257, 109.75, 3)])
 def test_the_tuning_seeds_second_pole_of_a_broad_mode_is_rejected(seed, lost, found):
-    row = modal_fuzz.unseen(seed)  # found as before the test (1,003,257's 90.86 rad/s was missed before too)
+    row = modal_fuzz.unseen(seed)  # 1,003,257's 90.86 rad/s, missed before, found by the residual search since
+    # the fifteenth round (identifier/modal/decay_search.py)
     assert row["invented"] == 0 and row["found"] == found
     result = modal_fuzz.modal.identify([modal_fuzz.unseen_trace(modal_fuzz.unseen_record(seed))],
                                        **modal_fuzz.OPTIONS)

@@ -51,14 +51,13 @@ Steps (each its own module):
    skips this step (about half the time);
 5. support (:func:`identifier.modal.support.judge`): a mode is reported only
    when the record carries it (its periods and, in a stationary record, its
-   decay times in the record; stable at half the model orders, or
-   precise; found again by all jackknife replicates but one; finite standard errors;
-   not a duplicate the record does not resolve; in a free response, above
-   the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`;
-   in a free decay, needed beside its neighbours, :mod:`identifier.modal.decay_pairs`).
-   The others, and the candidates of step 3 below ``COHERENCE``, are listed in
-   ``details["rejected"]`` with their reason; ``details["warnings"]`` says
-   when a stationary record is under two periods of its lowest frequency.
+   decay times in the record; stable at half the model orders, or precise; found again by all jackknife
+   replicates but one; finite standard errors; not a duplicate the record does not resolve; in a free
+   response, above the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`; in a free
+   decay, needed beside its neighbours, :mod:`identifier.modal.decay_pairs`; then the modes SSI missed,
+   found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
+   of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
+   ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency.
 
 Each channel's mean is removed from a stationary record (neither a free
 decay nor labelled a free response: stationary covariances are about the
@@ -104,7 +103,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, with_bias
 from . import harmonics as periodic
-from . import decay_pairs, decay_snr, input_output
+from . import decay_pairs, decay_search, decay_snr, input_output
 from .support import rejected as support_rejected
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
@@ -297,7 +296,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
     ml, gone = decay_snr.retest(records, dt, ml, rejected) if decay else (ml, [])  # refined poles vs noise
     ml, pairs = decay_pairs.screen(traces, records, dt, ml, dropped, refine) if decay else (ml, [])
-    rejected += gone + pairs  # the free-decay pair test: one pole for a broad mode's two
+    ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine) if decay else (ml, [])
+    rejected += gone + pairs + more  # the pair test: one pole for a broad mode's two; then missed modes
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
     shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS
