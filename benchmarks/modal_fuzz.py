@@ -122,9 +122,12 @@ and measured once on the free decays of the tuning seeds
 1,000,000-1,003,999 (docs/modal-method.md, Fourteenth round). Issue
 21's fifteenth round (the residual search in free decays,
 identifier/modal/decay_search.py) was tried on the free decays of
-1,000,000-1,000,119 (1,000,005, 1,000,008 and 1,000,022 looked at; the
-closed-form test is 1,000,005's record) and measured once on the free
-decays of 1,000,000-1,003,999 (docs/modal-method.md, Fifteenth round).
+1,000,000-1,001,046 (1,000,005, 1,000,008 and 1,000,022 looked at, the
+closed-form test is 1,000,005's record; the first version's invented
+modes 1,000,211, 1,000,261, 1,000,716, 1,000,809 and 1,000,918 looked at)
+and measured on the free decays of 1,000,000-1,003,999, twice (the
+second version's invented mode, 1,003,278, looked at: docs/modal-method.md,
+Fifteenth round).
 Seeds 1,004,000 and above have never been run.
 """
 from __future__ import annotations
