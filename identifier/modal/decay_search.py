@@ -64,11 +64,13 @@ from .decay_pairs import pvalues, screen, stretch
 from .decay_snr import screen as matched_filter
 from .ml_fit import fit_poles
 from .ml_residual import missing_poles
+from .stabilisation import Criteria
 from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds
 from .support import FREE_PERIODS, MIN_DECAYS, Verdict
 
 ALPHA = 0.001  # chance per record that a false mode is added (one in 1,000 records)
 MAX_ADDED = 3  # modes added to one record at most
+ZETA_MAX = Criteria.zeta_max  # an added mode's damping under the stabilisation's bound: what SSI may report
 
 
 def _candidates(extra: np.ndarray, poles: np.ndarray, dt: float, length: float) -> np.ndarray:
@@ -89,13 +91,16 @@ def _candidates(extra: np.ndarray, poles: np.ndarray, dt: float, length: float) 
 
 
 def _fit(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles: np.ndarray, others: np.ndarray,
-         c: complex) -> tuple[np.ndarray, tuple[np.ndarray, ...]] | None:
+         c: complex, length: float) -> tuple[np.ndarray, tuple[np.ndarray, ...]] | None:
     """The candidate ``c`` and its reported neighbours in frequency (one or
     two of ``poles``) fitted jointly by ML, ``others`` and the other reported
     poles held, on ``DECAYS`` decay times of the slowest reported pole or
     ``c``: the neighbours' indices in ``poles`` and ``omega`` rad/s, ``zeta``
     and their standard errors (each (1 + neighbours,), ``c`` first); None if
-    the fit does not converge, ``c`` ends on a bound or has no finite error."""
+    the fit does not converge, ``c`` ends on a bound, has no finite error,
+    or its fitted pole is no candidate in the ``length`` s record (under
+    ``FREE_PERIODS`` periods or ``MIN_DECAYS`` decay times, or damping
+    ``ZETA_MAX`` or more)."""
     every = np.concatenate([poles, [c], others])
     n = int(np.ceil(DECAYS / -np.max(np.r_[poles.real, c.real]) / dt))
     ts, zs = stretch(records, starts, dt, every, n)
@@ -108,6 +113,7 @@ def _fit(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles:
     fitted, cov, ok, edge = fit_poles(ts, zs, fixed, free, lower, upper)
     w, z, sw, sz = omega_zeta(fitted, cov)
     good = ~edge & np.isfinite(sw) & np.isfinite(sz) & (sw > 0) & (sz > 0) & (z > 0) & (z < 1)
+    good[0] &= (z[0] < ZETA_MAX) & (w[0] * length / (2 * np.pi) >= FREE_PERIODS) & (z[0] * w[0] * length >= MIN_DECAYS)
     if not ok or not good[0]:
         return None
     return near[good[1:]], tuple(v[good] for v in (w, z, sw, sz))
@@ -150,7 +156,7 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
             break
         best = int(np.nanargmin(p))
         c = extra[ok][best]
-        fit = _fit(records, starts, dt, poles, np.delete(extra, np.flatnonzero(ok)[best]), c)
+        fit = _fit(records, starts, dt, poles, np.delete(extra, np.flatnonzero(ok)[best]), c, length)
         if fit is None:
             break
         near, (w, z, sw, sz) = fit
