@@ -179,7 +179,9 @@ def test_refused_per_mode_when_a_pole_moves_too_far_or_the_fit_fails(monkeypatch
     out = direct(y, start_w, start_z, std_w, std_z)
     assert list(out.applied) == [True, False, True], out.details
     assert "moved" in out.details["mode_reasons"][1] and "SSI kept" in out.details["mode_reasons"][1]
-    assert out.omega[1] == start_w[1] and out.omega_std[1] == std_w[1]
+    assert out.omega[1] == start_w[1] and "widened" in out.details["mode_reasons"][1]
+    widened = np.sqrt(out.omega_std[1] ** 2 - std_w[1] ** 2)  # the move, rad/s: to the truth, within its bound
+    assert widened > refine.MOVE * std_w[1] and abs(widened - abs(start_w[1] - OMEGA[1])) < 4 * bound[1, 0]
     assert np.all(np.abs(out.omega[[0, 2]] - OMEGA[[0, 2]]) < 4 * bound[[0, 2], 0])
     monkeypatch.setattr(ml_fit, "MAX_ITERATIONS", 0)
     failed = direct(y, start_w, start_z, std_w, 5 * bound[:, 1])
