@@ -59,7 +59,6 @@ filter decides).
 """
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -153,7 +152,7 @@ def screen(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     candidates = [(r["omega"], r["zeta"]) for r in rejected]
     gone: list[dict] = []
     while True:
-        modelled = (ml.zeta > 0) & (ml.zeta < 1)
+        modelled = ml.modelled
         if modelled.sum() < 2:
             return ml, gone
         poles = complex_poles(ml.omega[modelled], ml.zeta[modelled])
@@ -171,6 +170,4 @@ def screen(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
             f"their one-pole fit"
         gone.append({"omega": float(ml.omega[worst]), "zeta": float(ml.zeta[worst]),
                      "reason": f"{why} (free-decay pair test: p {p[b]:.2g}, needs {ALPHA:g})"})
-        keep = np.arange(ml.omega.size) != worst
-        ml = dataclasses.replace(ml, omega=ml.omega[keep], zeta=ml.zeta[keep], omega_std=ml.omega_std[keep],
-                                 zeta_std=ml.zeta_std[keep], applied=ml.applied[keep], source=ml.source[keep])
+        ml = ml.subset(np.arange(ml.omega.size) != worst)

@@ -65,7 +65,7 @@ from .decay_snr import screen as matched_filter
 from .ml_fit import fit_poles
 from .ml_residual import missing_poles
 from .stabilisation import Criteria
-from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds
+from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds, resolved
 from .support import FREE_PERIODS, MIN_DECAYS, Verdict
 
 ALPHA = 0.001  # chance per record that a false mode is added (one in 1,000 records)
@@ -84,9 +84,7 @@ def _candidates(extra: np.ndarray, poles: np.ndarray, dt: float, length: float) 
     :func:`identifier.modal.refine.nuisance_poles`: a broad pole over a
     reported one takes up its misfit; tuning seed 1,000,261)."""
     omega = np.abs(extra)
-    resolved = np.all(np.abs(extra.imag[:, None] - poles.imag[None, :])
-                      > 2 * np.pi / length - extra.real[:, None] - poles.real[None, :], axis=1)
-    return (extra.real < 0) & (extra.imag > 0) & (extra.imag < np.pi / dt) & resolved & \
+    return (extra.real < 0) & (extra.imag > 0) & (extra.imag < np.pi / dt) & resolved(extra, poles, length) & \
         (omega * length / (2 * np.pi) >= FREE_PERIODS) & (-extra.real * length >= MIN_DECAYS)
 
 
@@ -135,7 +133,7 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     nuisance = ml.nuisance if ml.details.get("applied") else np.zeros(0, complex)
     added: list[dict] = []
     for _ in range(MAX_ADDED):
-        modelled = (ml.zeta > 0) & (ml.zeta < 1)
+        modelled = ml.modelled
         if not modelled.any():
             break
         poles = complex_poles(ml.omega[modelled], ml.zeta[modelled])
@@ -187,7 +185,7 @@ def _added(ml: PoleRefinement, near: np.ndarray, fit: tuple[np.ndarray, ...], le
     values = [a.copy() for a in (ml.omega, ml.zeta, ml.omega_std, ml.zeta_std)]
     for v, f in zip(values, fit):
         v[near] = f[1:]
-    outside = ~((ml.zeta > 0) & (ml.zeta < 1)) & (np.abs(ml.omega - w[0]) < max(2 * np.pi / length, z[0] * w[0]))
+    outside = ~ml.modelled & (np.abs(ml.omega - w[0]) < max(2 * np.pi / length, z[0] * w[0]))
     keep = ~outside
     at = int(np.searchsorted(values[0][keep], w[0]))
     new = [np.insert(v[keep], at, f[0]) for v, f in zip(values, fit)]

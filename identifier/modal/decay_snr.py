@@ -50,7 +50,6 @@ band, and one within a neighbour's half-power band that correlates less
 """
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 from scipy.stats import chi2
@@ -198,6 +197,4 @@ def retest(records: list[np.ndarray], dt: float, ml: PoleRefinement, others: lis
                      others, overlap=True)
     gone = [{"omega": float(w), "zeta": float(z), "reason": f"{r} at the refined poles"}
             for w, z, r, k in zip(ml.omega, ml.zeta, verdict.reasons, verdict.keep) if not k]
-    keep = verdict.keep
-    return dataclasses.replace(ml, omega=ml.omega[keep], zeta=ml.zeta[keep], omega_std=ml.omega_std[keep],
-                               zeta_std=ml.zeta_std[keep], applied=ml.applied[keep], source=ml.source[keep]), gone
+    return ml.subset(verdict.keep), gone

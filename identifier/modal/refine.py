@@ -69,14 +69,11 @@ two modes (its frequency between theirs); both refined poles are reported
 with their ML standard errors, the second as a new mode (``source`` -1, its
 shape by least squares). Its evidence is the residual search's
 (``ml_residual.ALPHA`` 0.01, Bonferroni over bins and lengths). A move over ``MOVE`` that nothing
-explains keeps SSI's pole with its errors widened by the move, ``se' =
-sqrt(se^2 + Delta^2)`` in ``omega`` and in ``zeta`` (``Delta`` the
-refined pole's distance from SSI's): two estimates of one pole that
-differ by more than their errors state say that the model is wrong there
-(tuning seed 1,002,218: one SSI pole at 1.337 rad/s over two modes of one
-sensor at 1.248 and 1.431, under two decay times each in the record; the
-fit moved it 4.5 standard errors, to the lower one), and the difference
-is the only measure of that error the record gives. With
+explains keeps SSI's pole with errors ``sqrt(se^2 + Delta^2)`` in
+``omega`` and ``zeta`` (``Delta`` the move): two estimates of one pole
+that differ by more than their errors say the model is wrong there, and
+their difference is the only measure of that error the record gives
+(tuning seed 1,002,218: one SSI pole over two unresolved modes). With
 ``uncertainty="off"`` SSI states no errors: the refined values are
 reported (the same as the default run's wherever that run's move test
 passes) without errors (NaN), and only the bounds limit a move (no split).
@@ -94,7 +91,7 @@ efficient only where the model holds. Shapes are SSI's.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -134,6 +131,21 @@ class PoleRefinement:
     source: np.ndarray
     details: dict[str, Any] = field(default_factory=dict)
     nuisance: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+
+    @property
+    def modelled(self) -> np.ndarray:  # (k',) bool: damping in (0, 1), the modes a free-decay fit models
+        return (self.zeta > 0) & (self.zeta < 1)
+
+    def subset(self, keep: np.ndarray) -> PoleRefinement:
+        """The modes ``keep`` ((k',) bool) only; details and nuisance poles as they are."""
+        return replace(self, omega=self.omega[keep], zeta=self.zeta[keep], omega_std=self.omega_std[keep],
+                       zeta_std=self.zeta_std[keep], applied=self.applied[keep], source=self.source[keep])
+
+
+def resolved(extra: np.ndarray, poles: np.ndarray, span: float) -> np.ndarray:
+    """(k,) bool: ``extra`` (k,) 1/s resolved from all ``poles``, ``|d omega_d| > 2 pi / span + sigma_a + sigma_b``."""
+    gap = np.abs(extra.imag[:, None] - poles.imag[None, :])
+    return np.all(gap > 2 * np.pi / span - extra.real[:, None] - poles.real[None, :], axis=1)
 
 
 def free_starts(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> list[int] | str:
@@ -181,7 +193,7 @@ def nuisance_poles(candidates: Sequence[tuple[float, float]], poles: np.ndarray,
         if z * w * dt > 0.1:
             continue
         lam = complex_poles(np.array([w]), np.array([z]))[0]
-        if all(abs(lam.imag - p.imag) > 2 * np.pi / span - lam.real - p.real for p in kept):
+        if resolved(np.array([lam]), np.array(kept, dtype=complex), span)[0]:
             kept.append(lam)
             out.append(lam)
     return np.array(out, dtype=complex)
