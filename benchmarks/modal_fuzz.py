@@ -127,8 +127,15 @@ closed-form test is 1,000,005's record; the first version's invented
 modes 1,000,211, 1,000,261, 1,000,716, 1,000,809 and 1,000,918 looked at)
 and measured on the free decays of 1,000,000-1,003,999, twice (the
 second version's invented mode, 1,003,278, looked at: docs/modal-method.md,
-Fifteenth round).
-Seeds 1,004,000 and above have never been run.
+Fifteenth round). Seeds 1,004,000-1,005,999 and 1,006,000-1,007,999
+were fresh for the checks of 34e0f1d and 39cb43b (docs/modal-method.md,
+Held-out check); their records with an invented mode were looked at
+after the figures were written, so they are tuning seeds now. Since the
+sixteenth round reported modes are matched to the true ones by a
+one-to-one assignment (:func:`match`; 1,006,080's second mode was
+counted invented by the nearest-first rule although both reported modes
+have a true partner); rows give both counts. Seeds 1,008,000 and above
+have never been run.
 """
 from __future__ import annotations
 
@@ -137,6 +144,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -319,13 +327,45 @@ def unseen_trace(rec: dict) -> Trace:
                  {"test": "unseen", "repetition": 0, "structure": "random"}, {})
 
 
+def match(w: np.ndarray, se: np.ndarray, omega: np.ndarray) -> dict[int, int]:
+    """Reported modes ``w`` (k,) rad/s with standard errors ``se`` (k,) matched
+    one to one to true modes ``omega`` (p,): true index -> reported index.
+    A pair is admissible when ``|w_i - omega_j| <= max(5 %, 4 se_i)``; of the
+    one-to-one matchings of admissible pairs, the one with the most pairs
+    and, among those, the least summed relative distance
+    (``scipy.optimize.linear_sum_assignment``). A reported mode left out is
+    invented. (Until the sixteenth round the nearest-first greedy matching
+    of :func:`match_nearest` was used: it calls a reported mode invented
+    when the nearer one took its true mode although both have a partner.)"""
+    if w.size == 0:
+        return {}
+    gap = np.abs(w[:, None] - omega[None, :])
+    ok = gap <= np.maximum(0.05 * omega[None, :], 4 * np.nan_to_num(se, nan=0.0)[:, None])
+    near = np.where(ok, gap / omega[None, :], 0.0)
+    cost = np.where(ok, near, 1.0 + near.sum())  # a left-out pair costs more than all admissible ones
+    rows, cols = linear_sum_assignment(cost)
+    return {int(j): int(i) for i, j in zip(rows, cols) if ok[i, j]}
+
+
+def match_nearest(w: np.ndarray, se: np.ndarray, omega: np.ndarray) -> dict[int, int]:
+    """The earlier greedy matching, kept to compare figures across rounds:
+    reported modes nearest first, each to its nearest true mode if
+    admissible (as :func:`match`) and not taken yet."""
+    taken: dict[int, int] = {}
+    for i in np.argsort(np.abs(w[:, None] - omega[None, :]).min(axis=1)) if w.size else []:
+        j = int(np.argmin(np.abs(omega - w[i])))
+        if abs(w[i] - omega[j]) <= max(0.05 * omega[j], 4 * se[i]) and j not in taken:
+            taken[j] = int(i)
+    return taken
+
+
 def unseen(seed: int) -> dict:
     """One held-out case scored: reported modes matched one to one to the
-    true ones (each reported mode to the nearest true mode; a second one on
-    the same true mode, or one further than ``max(5 %, 4 omega_std)`` from
-    it, is invented); ``supported``: true modes of at least 20 periods and 5
-    decay times in the record and SNR >= 1, ``found`` of them; coverage of
-    the 95 % intervals ``+- 1.96 se`` of the matched modes' omega and zeta."""
+    true ones (:func:`match`; a reported mode left out is invented;
+    ``invented nearest``, ``found nearest``: under :func:`match_nearest`);
+    ``supported``: true modes of at least 20 periods and 5 decay times in
+    the record and SNR >= 1, ``found`` of them; coverage of the 95 %
+    intervals ``+- 1.96 se`` of the matched modes' omega and zeta."""
     rec = unseen_record(seed)
     omega, zeta = rec["omega"], rec["zeta"]
     row = {"seed": seed, "kind": rec["kind"], "modes": omega.size, "sensors": rec["y"].shape[0],
@@ -338,19 +378,16 @@ def unseen(seed: int) -> dict:
         return row | {"error": f"crash: {type(exc).__name__}: {exc}", "crash": True}
     w, se = np.array(result.omega), np.array(result.omega_std)
     z, sz = np.array(result.damping), np.array(result.damping_std)
-    invented, taken, cover_w, cover_z = 0, {}, [], []
-    for i in np.argsort(np.abs(w[:, None] - omega[None, :]).min(axis=1)) if w.size else []:
-        j = int(np.argmin(np.abs(omega - w[i])))
-        if abs(w[i] - omega[j]) > max(0.05 * omega[j], 4 * se[i]) or j in taken:
-            invented += 1
-            continue
-        taken[j] = i
-        cover_w.append(bool(abs(w[i] - omega[j]) <= 1.96 * se[i]))
-        cover_z.append(bool(abs(z[i] - zeta[j]) <= 1.96 * sz[i]))
+    taken, nearest = match(w, se, omega), match_nearest(w, se, omega)
+    pairs = np.array(sorted(taken.items()), dtype=int).reshape(-1, 2)
+    j, i = pairs[:, 0], pairs[:, 1]
     held = supported(rec)
-    return row | {"reported": int(w.size), "invented": invented, "supported": int(held.sum()),
-                  "found": int(sum(j in taken for j in np.flatnonzero(held))),
-                  "matched": len(cover_w), "omega covered": int(sum(cover_w)), "zeta covered": int(sum(cover_z)),
+    return row | {"reported": int(w.size), "invented": int(w.size - len(taken)),
+                  "invented nearest": int(w.size - len(nearest)), "supported": int(held.sum()),
+                  "found": int(sum(k in taken for k in np.flatnonzero(held))),
+                  "found nearest": int(sum(k in nearest for k in np.flatnonzero(held))),
+                  "matched": len(taken), "omega covered": int(np.sum(np.abs(w[i] - omega[j]) <= 1.96 * se[i])),
+                  "zeta covered": int(np.sum(np.abs(z[i] - zeta[j]) <= 1.96 * sz[i])),
                   "finite": bool(np.all(np.isfinite(se)) and np.all(np.isfinite(sz)))}
 
 
@@ -361,10 +398,12 @@ def summary(rows: list[dict]) -> str:
     share = (lambda a, b: f"{a}/{b} = {100 * a / b:.1f} %" if b else f"{a}/0")
     crashed = sum(bool(r.get("crash")) for r in rows)
     return (f"{len(rows)} records, {len(rows) - len(ok) - crashed} refused, {crashed} crashed; invented modes "
-            f"{sum(r['invented'] for r in ok)} (in {sum(r['invented'] > 0 for r in ok)} records); "
+            f"{sum(r['invented'] for r in ok)} (in {sum(r['invented'] > 0 for r in ok)} records; nearest-first "
+            f"matching {sum(r.get('invented nearest', r['invented']) for r in ok)}); "
             f"95 % intervals cover omega {share(sum(r['omega covered'] for r in ok), matched)}, "
             f"zeta {share(sum(r['zeta covered'] for r in ok), matched)}; supported modes found "
-            f"{share(sum(r['found'] for r in ok), sum(r['supported'] for r in ok))}; "
+            f"{share(sum(r['found'] for r in ok), sum(r['supported'] for r in ok))} (nearest-first matching "
+            f"{sum(r.get('found nearest', r['found']) for r in ok)}); "
             f"records with a non-finite error {sum(not r['finite'] for r in ok)}")
 
 
