@@ -131,6 +131,31 @@ class VarPro:
         return grad, 0.5 * (info + info.T)
 
 
+def inverse_information(h: np.ndarray) -> np.ndarray:
+    """``h^-1`` of a Fisher information ``h`` (k, k), symmetric positive
+    semi-definite, with NaN rows and columns for the parameters it leaves
+    undetermined: ``S = D h D`` (``D = diag(h)^-1/2``, units out) is split
+    ``S = V diag(mu) V^T``; directions with ``mu < k eps max(mu)`` are lost
+    to rounding (the record does not inform them: a pole of a term with no
+    amplitude, two poles on one mode); a parameter with a component over
+    ``sqrt(eps)`` in one has no finite variance; the rest is ``D V_+
+    diag(1 / mu_+) V_+^T D``. Equal to ``h^-1`` when ``h`` is well
+    conditioned; no warning on an ill-conditioned one (its conditioning is
+    the answer: NaN errors)."""
+    k = h.shape[0]
+    d = np.diag(h)
+    if not np.all(np.isfinite(h)) or np.any(d <= 0):
+        return np.full((k, k), np.nan)
+    scale = 1.0 / np.sqrt(d)
+    mu, v = np.linalg.eigh(h * scale[:, None] * scale[None, :])
+    kept = mu > k * np.finfo(float).eps * mu.max()
+    cov = (v[:, kept] / mu[kept]) @ v[:, kept].T * scale[:, None] * scale[None, :]
+    lost = np.any(np.abs(v[:, ~kept]) > np.sqrt(np.finfo(float).eps), axis=1)
+    cov[lost, :] = np.nan
+    cov[:, lost] = np.nan
+    return cov
+
+
 def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, upper: np.ndarray,
          watch: int | None = None) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray]:
     """Free poles (p,) fitted from ``start`` by Levenberg-Marquardt on the
@@ -160,13 +185,15 @@ def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, u
         hm, gm = h[np.ix_(move, move)], g[move]
         scale = np.maximum(np.diag(hm), np.finfo(float).tiny)
         try:
-            full = la.solve(hm, gm, assume_a="pos")
+            factor = la.cho_factor(hm, check_finite=False)
+            full = la.cho_solve(factor, gm, check_finite=False)
             if watch is None or watch >= p:
                 decrement = float(gm @ full)
             else:
                 mine = move < 2 * watch
-                cw = la.inv(hm)[np.ix_(mine, mine)]
-                decrement = float(full[mine] @ la.solve(cw, full[mine], assume_a="pos"))
+                cw = la.cho_solve(factor, np.eye(move.size), check_finite=False)[np.ix_(mine, mine)]
+                decrement = float(full[mine] @ la.cho_solve(la.cho_factor(cw, check_finite=False), full[mine],
+                                                            check_finite=False))
         except (la.LinAlgError, ValueError):
             decrement = np.inf
         if decrement < DECREMENT:  # the Gauss-Newton step would lower the cost by less: converged
@@ -175,7 +202,8 @@ def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, u
         for _ in range(30):
             step = np.zeros_like(x)
             try:
-                step[move] = -la.solve(hm + damping * np.diag(scale), gm, assume_a="pos")
+                step[move] = -la.cho_solve(la.cho_factor(hm + damping * np.diag(scale), check_finite=False), gm,
+                                           check_finite=False)
             except (la.LinAlgError, ValueError):
                 step[:] = np.nan
             if np.all(np.isfinite(step)):
@@ -191,9 +219,6 @@ def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, u
     g, h = fit.normal(ts, states, p)
     n_lin = 2 + 2 * (p + fixed.size)
     dof = sum(z.size for z in zs) - n_lin * sum(z.shape[1] for z in zs) - x.size
-    try:
-        cov = max(f / max(dof, 1), 1.0) * la.inv(h)  # noise levels at least FLOOR: not rounding's
-    except (la.LinAlgError, ValueError):
-        cov = np.full((x.size, x.size), np.nan)
+    cov = max(f / max(dof, 1), 1.0) * inverse_information(h)  # noise levels at least FLOOR: not rounding's
     edge = (np.abs(x - lower) < 1e-6 * width) | (np.abs(upper - x) < 1e-6 * width)
     return x[0::2] + 1j * x[1::2], cov, converged, edge.reshape(-1, 2).any(axis=1)
