@@ -48,7 +48,7 @@ Steps (each its own module):
    the short-record bias (``1 / T`` rad/s on omega, ``1 / (omega T)`` on
    zeta: :mod:`identifier.modal.support`). The replicates' subspaces are
    computed in the background while steps 2-3 run; ``uncertainty="off"``
-   skips this step (about half the time);
+   skips this step; a stationary record's are widened where its band disagrees (:mod:`.band_fit`);
 5. support (:func:`identifier.modal.support.judge`): a mode is reported only
    when the record carries it (its periods and, in a stationary record, its
    decay times in the record; stable at half the model orders, or precise; found again by all jackknife
@@ -101,10 +101,9 @@ from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi.hankel import BlockHankel, leading_svd
 from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
-from .support import judge, with_bias
+from .support import judge, rejected as support_rejected, with_bias
 from . import harmonics as periodic
-from . import decay_pairs, decay_search, decay_snr, input_output
-from .support import rejected as support_rejected
+from . import band_fit, decay_pairs, decay_search, decay_snr, input_output
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
 from ..io.traces import Channel, Trace
@@ -299,6 +298,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine) if decay else (ml, [])
     rejected += gone + pairs + more  # the pair test: one pole for a broad mode's two; then missed modes
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
+    omega_se, zeta_se, banded = band_fit.widen(records, dt, omega, zeta, omega_se, zeta_se) \
+        if not (free or ml.details["applied"]) else (omega_se, zeta_se, [""] * omega.size)  # stationary: vs bands
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
     shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS
     refined, source = np.append(refined, False)[ml.source], np.append(source, -1)[ml.source]
@@ -321,8 +322,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                  "orders": [md.order if md else None for md in modes],
                  "support": [md.support if md else None for md in modes],
                  "coherence": fits,
-                 "refined": refined.tolist(),
-                 "ml_refinement": ml.details,
+                 "refined": refined.tolist(), "ml_refinement": ml.details, "band_fit": banded,
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
