@@ -66,37 +66,37 @@ from scipy.stats import f as fisher
 
 from ..io.traces import Trace
 from .close_pairs.free_decay_fit import basis
-from .ml_fit import VarPro, fit_poles, noise_levels
+from .ml_fit import VarPro, fit_poles, noise_levels, select
 from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds
 
 ALPHA = 0.001  # chance per record that a false mode beside true ones is kept (one in 1,000 records)
 MIN_SAMPLES = 16  # least samples per basis column in the fitted stretch
 
 
-def _cost(ts: list[np.ndarray], zs: list[np.ndarray], free: np.ndarray, fixed: np.ndarray, dt: float
-          ) -> tuple[float, np.ndarray, bool]:
+def _cost(fit: VarPro, free: np.ndarray, fixed: np.ndarray, dt: float) -> tuple[float, np.ndarray, bool]:
     """The weighted residual sum of squares with the poles ``free`` fitted
     by ML (bounds of :func:`identifier.modal.refine.pole_bounds`), ``fixed``
-    held; the fitted poles; whether the fit converged."""
+    held (``fit`` their :class:`VarPro`); the fitted poles; whether the fit converged."""
     lower, upper = pole_bounds(free, fixed, dt)
-    fitted, _, ok, _ = fit_poles(ts, zs, fixed, free, lower, upper)
-    return VarPro(ts, zs, fixed).state(np.column_stack([fitted.real, fitted.imag]).ravel())[0], fitted, ok
+    fitted, _, ok, _ = fit_poles(fit.ts, fit.zs, fixed, free, lower, upper, fit=fit)
+    return fit.cost(np.column_stack([fitted.real, fitted.imag]).ravel()), fitted, ok
 
 
 def stretch(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, every: np.ndarray, n: int
-            ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+            ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     """The first ``n`` free samples of every trace (``records`` (m, n_r) from
-    ``starts``), grouped by length: times (n_g,) s and channels (n_g, M_g)
+    ``starts``), grouped by length: times (n_g,) s, channels (n_g, M_g)
     divided by their noise levels (RMS residual on the poles ``every``,
-    complex 1/s, with offset and drift)."""
+    complex 1/s, with offset and drift) and that basis ``basis(t, every)``."""
     free_len = [y.shape[1] - s for y, s in zip(records, starts)]
-    ts, zs = [], []
+    ts, zs, bs = [], [], []
     for length in sorted({min(f, n) for f in free_len}):
         y = np.hstack([y[:, s:s + length].T for y, s, f in zip(records, starts, free_len) if min(f, n) == length])
         t = np.arange(length) * dt
         ts.append(t)
-        zs.append(y / noise_levels(t, y, basis(t, every)))
-    return ts, zs
+        bs.append(basis(t, every))
+        zs.append(y / noise_levels(t, y, bs[-1]))
+    return ts, zs, bs
 
 
 def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles: np.ndarray,
@@ -111,6 +111,7 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
     free_len = np.array([y.shape[1] - s for y, s in zip(records, starts)])
     order = np.argsort(poles.imag)
     out, drop = np.full(poles.size, np.nan), np.arange(poles.size)
+    stretches: dict[int, tuple[list[np.ndarray], ...]] = {}  # by length: poles of one length share it
     for rank, b in enumerate(order):
         if tested is not None and b not in tested:
             continue
@@ -119,14 +120,17 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
         columns = 2 + 2 * every.size
         slow = -np.max(poles[np.r_[b, near]].real)
         n = int(min(free_len.max(), max(np.ceil(DECAYS / slow / dt), MIN_SAMPLES * columns)))
-        ts, zs = stretch(records, starts, dt, every, n)
+        if n not in stretches:
+            stretches[n] = stretch(records, starts, dt, every, n)
+        ts, zs, bs = stretches[n]
         m = sum(z.shape[1] for z in zs)
         nu = sum(z.size for z in zs) - m * columns - 2 * (1 + near.size)
         if nu <= 0:
             continue
         fixed = np.concatenate([poles[rest], nuisance])
-        with_b, fitted, ok = _cost(ts, zs, np.r_[poles[b], poles[near]], fixed, dt)
-        without_b, one, ok_0 = _cost(ts, zs, fitted[1:], fixed, dt)
+        fit = VarPro(ts, zs, fixed, [select(g, np.r_[rest, poles.size + np.arange(nuisance.size)]) for g in bs])
+        with_b, fitted, ok = _cost(fit, np.r_[poles[b], poles[near]], fixed, dt)
+        without_b, one, ok_0 = _cost(fit, fitted[1:], fixed, dt)
         if ok and ok_0 and with_b > 0:
             f = (without_b - with_b) / (2 * m + 2) / (with_b / nu)
             out[b] = fisher.sf(f, 2 * m + 2, nu) * max(len(t) for t in ts) / 2

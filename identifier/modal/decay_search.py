@@ -62,7 +62,7 @@ from ..io.traces import Trace
 from .close_pairs.free_decay_fit import omega_zeta
 from .decay_pairs import pvalues, screen, stretch
 from .decay_snr import screen as matched_filter
-from .ml_fit import fit_poles
+from .ml_fit import VarPro, fit_poles, select
 from .ml_residual import missing_poles
 from .stabilisation import Criteria
 from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds, resolved
@@ -101,14 +101,16 @@ def _fit(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles:
     ``ZETA_MAX`` or more)."""
     every = np.concatenate([poles, [c], others])
     n = int(np.ceil(DECAYS / -np.max(np.r_[poles.real, c.real]) / dt))
-    ts, zs = stretch(records, starts, dt, every, n)
+    ts, zs, bs = stretch(records, starts, dt, every, n)
     order = np.argsort(poles.imag)
     rank = np.searchsorted(poles.imag[order], c.imag)
     near = order[max(rank - 1, 0):rank + 1]
     free = np.r_[c, poles[near]]
-    fixed = np.concatenate([np.delete(poles, near), others])
+    held = np.r_[np.delete(np.arange(poles.size), near), poles.size + 1 + np.arange(others.size)]
+    fixed = every[held]
     lower, upper = pole_bounds(free, fixed, dt)
-    fitted, cov, ok, edge = fit_poles(ts, zs, fixed, free, lower, upper)
+    fitted, cov, ok, edge = fit_poles(ts, zs, fixed, free, lower, upper,
+                                      fit=VarPro(ts, zs, fixed, [select(b, held) for b in bs]))
     w, z, sw, sz = omega_zeta(fitted, cov)
     good = ~edge & np.isfinite(sw) & np.isfinite(sz) & (sw > 0) & (sz > 0) & (z > 0) & (z < 1)
     good[0] &= (z[0] < ZETA_MAX) & (w[0] * length / (2 * np.pi) >= FREE_PERIODS) & (z[0] * w[0] * length >= MIN_DECAYS)
@@ -140,8 +142,8 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
         if not ml.details.get("applied"):
             nuisance = nuisance_poles([(r["omega"], r["zeta"]) for r in rejected], poles, dt, length)
         n = int(np.ceil(DECAYS / -np.max(poles.real) / dt))
-        ts, zs = stretch(records, starts, dt, np.concatenate([poles, nuisance]), n)
-        extra = np.concatenate([nuisance, missing_poles(ts, zs, np.concatenate([poles, nuisance]), dt)])
+        ts, zs, bs = stretch(records, starts, dt, np.concatenate([poles, nuisance]), n)
+        extra = np.concatenate([nuisance, missing_poles(ts, zs, np.concatenate([poles, nuisance]), dt, bs)])
         ok = _candidates(extra, poles, dt, length)
         ok &= _candidates(extra, np.concatenate([poles, extra[~ok]]), dt, length)  # and from the poles held
         # beside them (a held pole of a mode under MIN_DECAYS next to a broad one: tuning seed 1,003,278)

@@ -64,19 +64,26 @@ class Solver:
     scaled to unit norm, Cholesky, one step of iterative refinement per
     solve): matrix products only. A Householder QR of a tall matrix runs
     N level-2 BLAS passes, each on every BLAS thread: 10-50 times slower
-    on a loaded machine."""
+    on a loaded machine. ``overwrite``: ``b`` is scaled in place (no copy
+    of it: each new array of a long record costs its pages' faults)."""
 
-    def __init__(self, b: np.ndarray) -> None:
+    def __init__(self, b: np.ndarray, overwrite: bool = False) -> None:
         self.scale = np.maximum(np.sqrt(np.einsum("ij,ij->j", b, b)), np.finfo(float).tiny)
-        self.b = b / self.scale
+        self.b = np.divide(b, self.scale, out=b if overwrite else None)
         self.factor = la.cho_factor(self.b.T @ self.b)
 
     def coefficients(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Coefficients (N, M) of the scaled columns and the residual (n, M) of ``z`` (n, M)."""
         c = la.cho_solve(self.factor, self.b.T @ z)
-        r = z - self.b @ c
+        r = self.b @ c
+        np.subtract(z, r, out=r)
         c += la.cho_solve(self.factor, self.b.T @ r)
-        return c, z - self.b @ c
+        return c, np.subtract(z, np.matmul(self.b, c, out=r), out=r)
+
+
+def select(b: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``basis(t, every[idx])`` (n, 2 + 2 len(idx)) from ``b = basis(t, every)``: the same numbers, not recomputed."""
+    return b[:, np.r_[0, 1, (2 + 2 * np.asarray(idx, dtype=int)[:, None] + np.arange(2)).ravel()]]
 
 
 class VarPro:
@@ -85,37 +92,59 @@ class VarPro:
     interleaved in ``x``: the cost ``f`` and, from small products, the
     Gauss-Newton gradient and information (no ``n M x 2p`` Jacobian)."""
 
-    def __init__(self, ts: list[np.ndarray], zs: list[np.ndarray], fixed: np.ndarray) -> None:
+    def __init__(self, ts: list[np.ndarray], zs: list[np.ndarray], fixed: np.ndarray,
+                 columns: list[np.ndarray] | None = None) -> None:
+        """``columns``: per group ``basis(t, fixed)`` (n_g, 2 + 2 F) where the
+        caller has it (:func:`select`), else computed."""
         self.ts, self.zs = ts, zs
-        self.fixed_cols = [basis(t, fixed)[:, 2:] for t in ts]
+        self.fixed_cols = [basis(t, fixed) for t in ts] if columns is None else columns
+        self.costs: dict[bytes, float] = {}  # f at every x evaluated
+        self.last: tuple = ()  # the states of the last normal equations and those equations
 
     def state(self, x: np.ndarray) -> tuple[float, list[tuple]]:
-        """``f`` and per group the basis, its solver, the amplitudes ``C`` (of
-        the unscaled columns) and the residual ``R``; ``f`` infinite where the
-        basis is singular."""
+        """``f`` and per group ``e^(lambda_j t)`` (n, p) of the free poles, the
+        solver of the basis ``[1, t, free poles' columns, fixed poles'
+        columns]``, the amplitudes ``C`` (of the unscaled columns) and the
+        residual ``R``; ``f`` infinite where the basis is singular."""
         poles = x[0::2] + 1j * x[1::2]
+        k = 2 * poles.size
         out, f = [], 0.0
         for t, z, fc in zip(self.ts, self.zs, self.fixed_cols):
-            b = np.column_stack([basis(t, poles), fc])
+            b = np.empty((t.size, fc.shape[1] + k))
+            b[:, :2], b[:, 2 + k:] = fc[:, :2], fc[:, 2:]
+            e = np.outer(t, poles)
+            np.exp(e, out=e)
+            b[:, 2:2 + k:2], b[:, 3:2 + k:2] = e.real, e.imag
             try:
-                solver = Solver(b)
+                solver = Solver(b, overwrite=True)
             except la.LinAlgError:
-                return np.inf, []
+                f, out = np.inf, []
+                break
             c, r = solver.coefficients(z)
             f += float(np.sum(r**2))
-            out.append((b, solver, c / solver.scale[:, None], r))
+            out.append((e, solver, c / solver.scale[:, None], r))
+        self.costs[x.tobytes()] = f
         return f, out
 
-    @staticmethod
-    def normal(ts: list[np.ndarray], states: list[tuple], p: int) -> tuple[np.ndarray, np.ndarray]:
+    def cost(self, x: np.ndarray) -> float:
+        """``f`` at ``x``, remembered where :meth:`state` evaluated it (e.g. at a fit's end)."""
+        known = self.costs.get(x.tobytes())
+        return self.state(x)[0] if known is None else known
+
+    def normal(self, ts: list[np.ndarray], states: list[tuple], p: int) -> tuple[np.ndarray, np.ndarray]:
         """Gradient ``J^T r`` (2p,) and information ``J^T J`` (2p, 2p) of
         Kaufman's Jacobian ``-(I - P) D_k C`` (``P`` the projector on the
         basis): every ``D_k C`` is ``T a_k`` (``T = t [u_j, v_j]_j``, ``a_k`` from
         pole ``j``'s amplitudes), so ``J^T J = sum_m a^T W^T W a`` with ``W =
-        (I - P) T`` and ``J^T r = -sum_m a^T T^T r_m`` (``r`` is orthogonal to the basis)."""
+        (I - P) T`` and ``J^T r = -sum_m a^T T^T r_m`` (``r`` is orthogonal to the basis).
+        Those of the last ``states`` are remembered (a fit asks again at its end)."""
+        if self.last and self.last[0] is states and self.last[1] is ts:
+            return self.last[2]
         grad, info = np.zeros(2 * p), np.zeros((2 * p, 2 * p))
-        for t, (b, solver, coef, r) in zip(ts, states):
-            tt = b[:, 2:2 + 2 * p] * t[:, None]
+        for t, (e, solver, coef, r) in zip(ts, states):
+            tt = np.empty((t.size, 2 * p))
+            np.multiply(e.real, t[:, None], out=tt[:, 0::2])
+            np.multiply(e.imag, t[:, None], out=tt[:, 1::2])
             _, w = solver.coefficients(tt)
             gram = w.T @ w
             tr = tt.T @ r  # (2p, M)
@@ -128,7 +157,8 @@ class VarPro:
             ag = np.einsum("kam,ab->kbm", a, gram)
             info += np.einsum("kbm,lbm->kl", ag, a)
             grad -= np.einsum("kam,am->k", a, tr)
-        return grad, 0.5 * (info + info.T)
+        self.last = states, ts, (grad, 0.5 * (info + info.T))
+        return self.last[2]
 
 
 def inverse_information(h: np.ndarray) -> np.ndarray:
@@ -157,7 +187,7 @@ def inverse_information(h: np.ndarray) -> np.ndarray:
 
 
 def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-         watch: int | None = None) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray]:
+         watch: int | None = None, fit: VarPro | None = None) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray]:
     """Free poles (p,) fitted from ``start`` by Levenberg-Marquardt on the
     normal equations (steps clipped to the bounds), their covariance (2p, 2p)
     of ``(sigma, omega_d)``, whether it converged (the Gauss-Newton decrement
@@ -168,8 +198,9 @@ def fit_poles(ts, zs, fixed: np.ndarray, start: np.ndarray, lower: np.ndarray, u
     ``watch``, only the first ``watch`` poles' share of the decrement counts
     (the step's move of them in their own standard errors, squared): a
     nuisance pole of a mode the model fits badly may creep on for long
-    without moving them.)"""
-    fit = VarPro(ts, zs, fixed)
+    without moving them.) ``fit``: the caller's :class:`VarPro` of ``ts, zs,
+    fixed`` (its fixed columns shared; :meth:`VarPro.cost` then knows the cost at the end)."""
+    fit = VarPro(ts, zs, fixed) if fit is None else fit
     p = start.size
     x = np.clip(np.column_stack([start.real, start.imag]).ravel(), lower, upper)
     f, states = fit.state(x)

@@ -21,7 +21,7 @@ from scipy.stats import chi2
 
 from .close_pairs.free_decay_fit import Group, basis, project
 from .close_pairs.pair import score_statistics
-from .ml_fit import Solver, fit_poles
+from .ml_fit import Solver, VarPro, fit_poles
 
 ALPHA = 0.01  # level of the search for modes missing from the model (Bonferroni over bins and lengths)
 NEAR = 2.0  # frequency bins around a pole (plus its decay rate) that belong to it in that search
@@ -63,15 +63,18 @@ def residual_peak(resids: list[np.ndarray], poles: np.ndarray, dt: float) -> tup
     return best
 
 
-def missing_poles(ts: list[np.ndarray], zs: list[np.ndarray], poles: np.ndarray, dt: float) -> np.ndarray:
+def missing_poles(ts: list[np.ndarray], zs: list[np.ndarray], poles: np.ndarray, dt: float,
+                  bases: list[np.ndarray] | None = None) -> np.ndarray:
     """Poles of modes the model misses: while the weighted residual has a
     significant peak away from every pole (:func:`residual_peak`), a pole
-    fitted there (within a bin of the peak, the others held); at most ``MAX_ADDED``."""
+    fitted there (within a bin of the peak, the others held); at most
+    ``MAX_ADDED``. ``bases``: per group ``basis(t, poles)`` where the caller has it."""
     added: list[complex] = []
+    bs = [basis(t, poles) for t in ts] if bases is None else bases
     for _ in range(MAX_ADDED):
         every = np.concatenate([poles, added])
         try:
-            resids = [Solver(basis(t, every)).coefficients(z)[1] for t, z in zip(ts, zs)]
+            resids = [Solver(b).coefficients(z)[1] for b, z in zip(bs, zs)]
         except la.LinAlgError:
             break
         peak = residual_peak(resids, every, dt)
@@ -82,9 +85,11 @@ def missing_poles(ts: list[np.ndarray], zs: list[np.ndarray], poles: np.ndarray,
         lower = np.array([-2 * w0, max(w0 - step, 0.5 * w0)])
         upper = np.array([-1e-9 * w0, min(w0 + step, np.pi / dt)])
         stretch = int(np.ceil(4 / (rate * dt)))  # where the peak shows: fitted there
-        lam, _, _, _ = fit_poles([t[:stretch] for t in ts], [z[:stretch] for z in zs], every,
-                            np.array([complex(-min(rate, 0.5 * w0), w0)]), lower, upper)
+        part = [t[:stretch] for t in ts], [z[:stretch] for z in zs]
+        lam, _, _, _ = fit_poles(*part, every, np.array([complex(-min(rate, 0.5 * w0), w0)]), lower, upper,
+                                 fit=VarPro(*part, every, [b[:stretch] for b in bs]))
         added.append(complex(lam[0]))
+        bs = [np.hstack([b, basis(t, lam[:1])[:, 2:]]) for b, t in zip(bs, ts)]
     return np.array(added, dtype=complex)
 
 
