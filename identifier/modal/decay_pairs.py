@@ -82,19 +82,20 @@ def _cost(fit: VarPro, free: np.ndarray, fixed: np.ndarray, dt: float) -> tuple[
     return fit.cost(np.column_stack([fitted.real, fitted.imag]).ravel()), fitted, ok
 
 
-def stretch(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, every: np.ndarray, n: int
-            ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+def stretch(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, every: np.ndarray, n: int,
+            whole: np.ndarray | None = None) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     """The first ``n`` free samples of every trace (``records`` (m, n_r) from
     ``starts``), grouped by length: times (n_g,) s, channels (n_g, M_g)
     divided by their noise levels (RMS residual on the poles ``every``,
-    complex 1/s, with offset and drift) and that basis ``basis(t, every)``."""
+    complex 1/s, with offset and drift) and that basis ``basis(t, every)``
+    (its first rows of ``whole``, that basis at ``n`` or more samples, where given)."""
     free_len = [y.shape[1] - s for y, s in zip(records, starts)]
     ts, zs, bs = [], [], []
     for length in sorted({min(f, n) for f in free_len}):
         y = np.hstack([y[:, s:s + length].T for y, s, f in zip(records, starts, free_len) if min(f, n) == length])
         t = np.arange(length) * dt
         ts.append(t)
-        bs.append(basis(t, every))
+        bs.append(basis(t, every) if whole is None else whole[:length])
         zs.append(y / noise_levels(t, y, bs[-1]))
     return ts, zs, bs
 
@@ -111,17 +112,20 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
     free_len = np.array([y.shape[1] - s for y, s in zip(records, starts)])
     order = np.argsort(poles.imag)
     out, drop = np.full(poles.size, np.nan), np.arange(poles.size)
-    stretches: dict[int, tuple[list[np.ndarray], ...]] = {}  # by length: poles of one length share it
+    columns = 2 + 2 * every.size
+    tests = []  # per tested pole: its neighbours, the other reported poles, the stretch's samples
     for rank, b in enumerate(order):
         if tested is not None and b not in tested:
             continue
         near = np.delete(order[max(rank - 1, 0):rank + 2], 0 if rank == 0 else 1)
-        rest = np.setdiff1d(np.arange(poles.size), np.r_[b, near])
-        columns = 2 + 2 * every.size
         slow = -np.max(poles[np.r_[b, near]].real)
         n = int(min(free_len.max(), max(np.ceil(DECAYS / slow / dt), MIN_SAMPLES * columns)))
+        tests.append((b, near, np.setdiff1d(np.arange(poles.size), np.r_[b, near]), n))
+    whole = basis(np.arange(max(n for *_, n in tests)) * dt, every) if tests else None  # every stretch's rows
+    stretches: dict[int, tuple[list[np.ndarray], ...]] = {}  # by length: poles of one length share it
+    for b, near, rest, n in tests:
         if n not in stretches:
-            stretches[n] = stretch(records, starts, dt, every, n)
+            stretches[n] = stretch(records, starts, dt, every, n, whole)
         ts, zs, bs = stretches[n]
         m = sum(z.shape[1] for z in zs)
         nu = sum(z.size for z in zs) - m * columns - 2 * (1 + near.size)
@@ -130,8 +134,10 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
         fixed = np.concatenate([poles[rest], nuisance])
         fit = VarPro(ts, zs, fixed, [select(g, np.r_[rest, poles.size + np.arange(nuisance.size)]) for g in bs])
         with_b, fitted, ok = _cost(fit, np.r_[poles[b], poles[near]], fixed, dt)
+        if not ok or with_b <= 0:  # no verdict: the fit without b is not needed
+            continue
         without_b, one, ok_0 = _cost(fit, fitted[1:], fixed, dt)
-        if ok and ok_0 and with_b > 0:
+        if ok_0:
             f = (without_b - with_b) / (2 * m + 2) / (with_b / nu)
             out[b] = fisher.sf(f, 2 * m + 2, nu) * max(len(t) for t in ts) / 2
             over = np.abs(one - poles[b]) < np.abs(one - poles[near])
