@@ -85,7 +85,11 @@ unless the band needs two oscillator terms against one fitted freely (one
 broad mode fitted by two poles, the better supported of which can be the
 spurious one), and a candidate beside a better supported one of another
 shape within its standard errors must show a peak in the channels
-projected on its shape apart from its neighbours'.
+projected on its shape apart from its neighbours'. After them
+(:mod:`identifier.modal.peak_split`): a candidate whose band needs two
+oscillator terms of free poles against one, resolved from each other,
+its own pole between them or far from both, is one pole over several
+modes (its damping inflated to span them) and is rejected.
 
 Temporal coherence (:mod:`identifier.modal`) is tested before these and its
 failures are listed with them. A stationary candidate that passes it with
@@ -166,7 +170,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
-from . import peak_pairs
+from . import peak_pairs, peak_split
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -265,6 +269,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
         top, why = _weak(zeta, zeta_std, coherence)
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
                           reasons, top, why, np.abs(zeta) >= UNDAMPED * zeta_std)
+        peak_split.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, reasons)
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC
