@@ -134,7 +134,10 @@ after the figures were written, so they are tuning seeds now. Since the
 sixteenth round reported modes are matched to the true ones by a
 one-to-one assignment (:func:`match`; 1,006,080's second mode was
 counted invented by the nearest-first rule although both reported modes
-have a true partner); rows give both counts. Seeds 1,008,000 and above
+have a true partner); rows give both counts. The sixteenth round's
+changes (docs/modal-method.md, Sixteenth round) were designed on
+1,004,835, 1,005,864, 1,006,369, 1,007,669, 1,000,570, 1,001,037 and
+1,001,305 and measured on 1,000,000-1,007,999. Seeds 1,008,000 and above
 have never been run.
 """
 from __future__ import annotations
