@@ -43,7 +43,7 @@ band, as ``peak_test``; fails (keeps the pole) where the band is under
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize, nnls
+from scipy.optimize import minimize
 from scipy.stats import chi2 as chi_square
 
 from . import peak_test
@@ -71,7 +71,7 @@ def _scan(P: np.ndarray, X: np.ndarray, weights: np.ndarray, w: np.ndarray,
     for pole in grid:
         A = np.column_stack([X] + terms(w, [pole]))
         A = A / np.maximum(A.max(axis=0), 1e-300)
-        scores.append(nnls(A * weights[:, None], P * weights)[1])
+        scores.append(peak_test.non_negative(A * weights[:, None], P * weights)[1])
     return [grid[i] for i in np.argsort(scores)[:STARTS]]
 
 

@@ -78,6 +78,20 @@ def neighbour_terms(omega: np.ndarray, w0: float, zeta: float) -> list[np.ndarra
     return [shape * (omega / w0) ** (2 * q) for q in NEIGHBOUR_QUANTITIES]
 
 
+def non_negative(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
+    """``argmin |A x - b|, x >= 0`` (A (r, c), b (r,)) and the residual norm:
+    ``scipy.optimize.nnls``, given 100 c iterations where its default 3 c
+    do not converge (nearly collinear columns: two terms at one pole), then
+    the least-squares solution clipped at zero."""
+    for maxiter in (None, 100 * A.shape[1]):
+        try:
+            return nnls(A, b, maxiter=maxiter)
+        except RuntimeError:  # "Maximum number of iterations reached."
+            continue
+    x = np.maximum(np.linalg.lstsq(A, b, rcond=None)[0], 0.0)
+    return x, float(np.linalg.norm(A @ x - b))
+
+
 def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None = None,
             iterations: int = 30) -> tuple[float, np.ndarray]:
     """Whittle log-likelihood ``-lines sum(log S + P / S)`` of the band's
@@ -94,11 +108,11 @@ def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None =
         S = np.maximum(Xs @ a, floor)
         return float(-lines * np.sum(np.log(S) + P / S))
 
-    a = nnls(Xs, P)[0] if start is None else start * scale
+    a = non_negative(Xs, P)[0] if start is None else start * scale
     best, best_a = value(a), a
     for _ in range(iterations):
         w = 1.0 / np.maximum(Xs @ best_a, floor)
-        step = nnls(Xs * w[:, None], P * w)[0]
+        step = non_negative(Xs * w[:, None], P * w)[0]
         for _ in range(6):  # halved towards the best while it does not improve
             v = value(step)
             if v > best + 1e-10 * abs(best):
