@@ -46,8 +46,8 @@ def _screen(y: np.ndarray) -> tuple[PoleRefinement, list[dict]]:
     channels = {f"displacement_{i + 1}_w": Channel(f"displacement_{i + 1}_w", row, "displacement", "m", i + 1, "w",
                                                    np.full(3, np.nan), 0.0) for i, row in enumerate(y)}
     trace = Trace(Path("pair.h5"), np.arange(N) * DT, DT, DT, channels, {},
-                  {"test": "pair", "repetition": 0, "structure": "s"}, {})
-    w, z = REPORTED
+                  {"test": "pair", "repetition": 0, "structure": "s"}, {"kind": "initial"})
+    w, z = REPORTED  # labelled a free response: unlabelled, its slow mode's 2.5 decay times show in no channel's F test
     ml = PoleRefinement(w, z, np.full(3, 1e-3), np.full(3, 1e-4), np.zeros(3, bool), np.arange(3),
                         {"applied": False})
     return decay_pairs.screen([trace], [y], DT, ml, [], "auto")

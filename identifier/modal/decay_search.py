@@ -48,9 +48,8 @@ heavily damped modes fitted by fewer poles) leaves a residual that one
 more pole fits better than the residual variance says; misses a mode
 weaker than the threshold, one not resolved from a reported pole (two
 heavily damped modes closer than their bandwidths), or one of under
-``MIN_DECAYS`` decay times. Records without a reported mode, not free
-decays, or unlabelled ones whose decay no channel's F test shows
-(:func:`decay_shown`), are not searched.
+``MIN_DECAYS`` decay times. Records without a reported mode, or not free
+decays (:func:`identifier.modal.refine.free_starts`), are not searched.
 """
 from __future__ import annotations
 
@@ -66,9 +65,7 @@ from .decay_snr import screen as matched_filter
 from .ml_fit import VarPro, fit_poles, select
 from .ml_residual import missing_poles
 from .stabilisation import Criteria
-from .close_pairs import free_start
 from .refine import DECAYS, PoleRefinement, complex_poles, free_starts, nuisance_poles, pole_bounds, resolved
-from .ssi.covariance import decaying_channel
 from .support import FREE_PERIODS, MIN_DECAYS, Verdict
 
 ALPHA = 0.001  # chance per record that a false mode is added (one in 1,000 records)
@@ -122,21 +119,6 @@ def _fit(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles:
     return near[good[1:]], tuple(v[good] for v in (w, z, sw, sz))
 
 
-def decay_shown(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> bool:
-    """Whether every trace (records (m, n_i)) is labelled a free response
-    (:func:`identifier.modal.close_pairs.free_start`) or decays beyond a stationary record's
-    chance in one of its channels (unit RMS;
-    :func:`identifier.modal.ssi.covariance.decaying_channel`, the F test
-    with the channel's own degrees of freedom). A record that passes
-    :func:`~identifier.modal.ssi.covariance.is_free_decay` by its pooled
-    first-to-last ratio alone may be a slow, lightly damped random
-    response: its residual is the ongoing response, not white, and the
-    search's F test would take it for modes."""
-    return all(free_start(t) is not None or decaying_channel(y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)),
-                                                                            np.finfo(float).tiny))
-               for t, y in zip(traces, records))
-
-
 def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml: PoleRefinement,
            rejected: Sequence[dict], refine: str) -> tuple[PoleRefinement, list[dict]]:
     """``ml`` (:mod:`.refine`, after :mod:`.decay_pairs`) with the modes the
@@ -147,7 +129,7 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     entries of the modes the pair test drops afterwards. Unchanged with
     ``refine="off"`` or when a trace is no free decay."""
     starts = free_starts(traces, records)
-    if refine == "off" or isinstance(starts, str) or not decay_shown(traces, records):
+    if refine == "off" or isinstance(starts, str):
         return ml, []
     length = max(y.shape[1] for y in records) * dt
     nuisance = ml.nuisance if ml.details.get("applied") else np.zeros(0, complex)

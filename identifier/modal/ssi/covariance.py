@@ -110,6 +110,17 @@ def is_free_decay(y: np.ndarray) -> bool:
     return bool(first > 10.0 * last) or decaying_channel(y)
 
 
+def decay_shown(y: np.ndarray) -> bool:
+    """Whether one channel of a record (m, n), scaled to unit RMS, decays
+    beyond a stationary record's chance (:func:`decaying_channel`). A record
+    that :func:`is_free_decay` takes for a decay by its pooled first-to-last
+    ratio alone may be a slow, lightly damped random response (the ratio of
+    a mode holding about one decay time of the record exceeds 10 by chance):
+    fits that assume a free response (the ML refinement, its residual
+    terms, the residual search) are not run on it unless it is labelled one."""
+    return decaying_channel(y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny))
+
+
 def decaying_channel(z: np.ndarray) -> bool:
     """Whether a channel of ``z`` (m, n) has a first tenth's mean square
     ``F_i`` over its last tenth's ``L_i`` (``N = n // 10`` samples each) beyond
