@@ -48,7 +48,7 @@ Steps (each its own module):
    the short-record bias (``1 / T`` rad/s on omega, ``1 / (omega T)`` on
    zeta: :mod:`identifier.modal.support`). The replicates' subspaces are
    computed in the background while steps 2-3 run; ``uncertainty="off"``
-   skips this step; a stationary record's are widened where its band disagrees (:mod:`.band_fit`);
+   skips this step; a stationary record's errors widen where its band disagrees (:mod:`.band_fit`);
 5. support (:func:`identifier.modal.support.judge`): a mode is reported only
    when the record carries it (its periods and, in a stationary record, its
    decay times in the record; stable at half the model orders, or precise; found again by all jackknife
