@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import modal_fuzz
 import numpy as np
 import pytest
 
@@ -21,6 +22,7 @@ from structbench.identifier import modal
 from structbench.identifier.io.traces import Channel, Trace
 from structbench.identifier.modal import decay_search
 from structbench.identifier.modal.refine import PoleRefinement
+from structbench.identifier.modal.ssi.covariance import decay_shown, is_free_decay
 
 DT, N = 0.0187104959903441, 31664
 OMEGA = np.array([1.1758131, 1.5641039, 4.3715638, 6.5788637, 76.228565, 79.891953])  # rad/s, seed 1,000,005
@@ -102,10 +104,6 @@ def test_a_random_response_taken_for_a_decay_by_its_pooled_ratio_is_not_searched
     in its residual (the ongoing response around the mode, p 0), both
     invented; now the record is neither refined nor searched (the fits
     that assume a free response) and the mode stays alone."""
-    import modal_fuzz
-
-    from structbench.identifier.modal.ssi.covariance import decay_shown, is_free_decay
-
     rec = modal_fuzz.unseen_record(1_001_037)
     trace = modal_fuzz.unseen_trace(rec)
     assert is_free_decay(rec["y"]) and not decay_shown(rec["y"])

@@ -92,10 +92,7 @@ def widen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndar
     reasons = [""] * omega.size
     if omega.size == 0:
         return omega_std, zeta_std, reasons
-    n = min(y.shape[1] for y in records)
-    T = n * dt
-    lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
-    summed = peak_test.summed_periodogram(records)
+    summed, lines, T = peak_test.spectrum(records, dt)
     level = chi_square.isf(ALPHA, 2)
     for c in np.flatnonzero(np.isfinite(omega_std) & np.isfinite(zeta_std) & (omega_std > 0) & (zeta_std > 0)):
         fitted = band_pole(summed, lines, T, omega, zeta, c)

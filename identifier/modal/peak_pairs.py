@@ -214,7 +214,7 @@ def pair_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray, 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
            support: np.ndarray, scaled: np.ndarray, reasons: list[str], weak: np.ndarray, why: list[str],
-           settled: np.ndarray) -> None:
+           settled: np.ndarray, summed: np.ndarray | None = None) -> None:
     """Set ``reasons[i]`` of each candidate ``i`` not yet rejected (empty
     reason) that the pair test, the projected test or the shadow test
     rejects (module docstring; the shadow test: a candidate :func:`shadows`
@@ -225,14 +225,15 @@ def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
     ``weak`` (k,): for each candidate that needs a peak too (:func:`_faint`)
     the upper end of its damping interval, NaN for the others; ``why``
     (k,): the reason it needs one, which its rejection names; ``settled``
-    (k,) bool: damping told from zero (:func:`shadows`)."""
+    (k,) bool: damping told from zero (:func:`shadows`); ``summed``: the
+    records' :func:`identifier.modal.peak_test.summed_periodogram`, computed when None."""
     k = omega.size
     if k == 0:
         return
     open_ = [i for i in range(k) if not reasons[i]]
     dropped: set[int] = set()
     n = min(y.shape[1] for y in records)
-    summed = peak_test.summed_periodogram(records)  # every test below reads it
+    summed = peak_test.summed_periodogram(records) if summed is None else summed  # every test below reads it
     found = pairs(omega, zeta, scaled, open_) if k > 1 else []
     if found:
         T = n * dt

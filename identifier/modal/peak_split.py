@@ -140,19 +140,17 @@ def split_lr(summed: np.ndarray, lines: np.ndarray, T: float, omega: np.ndarray,
 
 
 def screen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
-           reasons: list[str]) -> None:
+           reasons: list[str], summed: np.ndarray | None = None) -> None:
     """Set ``reasons[i]`` of each candidate not yet rejected (empty reason)
     whose band holds two modes (module docstring) apart from it: candidates
     at ``omega`` (k,) rad/s, damping ``zeta`` (k,), standard errors
     ``omega_std`` (k,) rad/s, in stationary records (m, n_i) at ``dt`` s;
-    the other candidates not rejected are the neighbours."""
+    the other candidates not rejected are the neighbours; ``summed``: their
+    :func:`identifier.modal.peak_test.summed_periodogram`, computed when None."""
     open_ = [i for i in range(omega.size) if not reasons[i]]
     if not open_:
         return
-    n = min(y.shape[1] for y in records)
-    T = n * dt
-    lines = 2.0 * np.pi * np.arange(n // 2 + 1) / T
-    summed = peak_test.summed_periodogram(records)
+    summed, lines, T = peak_test.spectrum(records, dt, summed)
     se = np.where(np.isfinite(omega_std), omega_std, 0.0)
     for c in open_:
         out = split_lr(summed, lines, T, omega, zeta, c, [j for j in open_ if j != c])

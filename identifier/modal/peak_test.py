@@ -137,6 +137,16 @@ def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
     return total
 
 
+def spectrum(records: list[np.ndarray], dt: float, summed: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray, float]:
+    """The summed periodogram (:func:`summed_periodogram`, unless given as
+    ``summed``) of records (m, n_i) sampled at ``dt`` s, its lines ``2 pi k /
+    T`` rad/s and ``T = n dt`` s (``n`` the shortest record)."""
+    n = min(y.shape[1] for y in records)
+    summed = summed_periodogram(records) if summed is None else summed
+    return summed, 2.0 * np.pi * np.arange(n // 2 + 1) / (n * dt), n * dt
+
+
 def half_width(omega: np.ndarray, zeta: np.ndarray, T: float) -> np.ndarray:
     """The band half-width ``h`` rad/s (k,) of the module docstring for
     candidates at ``omega`` (k,) rad/s, damping ``zeta`` (k,), in records of

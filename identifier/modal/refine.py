@@ -103,7 +103,7 @@ from .close_pairs.free_decay_fit import basis, omega_zeta
 from .ml_fit import fit_poles, noise_levels
 from .ml_residual import missing_poles, misfit_pvalues
 from .runtime import one_blas_thread
-from .ssi.covariance import decay_shown, is_free_decay
+from .ssi.covariance import decay_shown
 
 DECAYS = 5.0  # record used: this many decay times 1 / (zeta omega) of the slowest reported mode
 MOVE = 4.0  # largest move of a refined pole from SSI's, in SSI standard errors (omega and zeta each)
@@ -151,7 +151,7 @@ def resolved(extra: np.ndarray, poles: np.ndarray, span: float) -> np.ndarray:
 def free_starts(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> list[int] | str:
     """The first sample of each trace's free response, or why a trace is no
     free decay: by the ``/excitation`` ``kind`` when the trace has one
-    (``impulse``/``initial`` only), else by its decay (:func:`is_free_decay`, :func:`decay_shown`)."""
+    (``impulse``/``initial`` only), else by a channel's decay (:func:`decay_shown`, so ``is_free_decay``)."""
     starts = []
     for trace, y in zip(traces, records):
         start = free_start(trace)
@@ -159,7 +159,7 @@ def free_starts(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> list[
             kind = str(trace.excitation_attrs.get("kind", ""))
             if kind:
                 return f"{trace.path.name}: excitation {kind!r} is no free decay"
-            if not (is_free_decay(y) and decay_shown(y)):
+            if not decay_shown(y):  # implies is_free_decay
                 return f"{trace.path.name}: the record does not decay (no free decay; no channel's F test shows it)"
             start = 0
         if y.shape[1] - start < 4:

@@ -170,7 +170,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
-from . import peak_pairs, peak_split
+from . import peak_pairs, peak_split, peak_test
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -267,9 +267,10 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
         top, why = _weak(zeta, zeta_std, coherence)
+        summed = peak_test.summed_periodogram(spectrum[0])  # both screens read it
         peak_pairs.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, np.asarray(support), scaled,
-                          reasons, top, why, np.abs(zeta) >= UNDAMPED * zeta_std)
-        peak_split.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, reasons)
+                          reasons, top, why, np.abs(zeta) >= UNDAMPED * zeta_std, summed)
+        peak_split.screen(spectrum[0], spectrum[1], omega, zeta, omega_std, reasons, summed)
     keep = np.array([not r for r in reasons], dtype=bool)
     if k > 1:
         alike = shape_mac > DUPLICATE_MAC

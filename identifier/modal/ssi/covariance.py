@@ -104,7 +104,7 @@ def is_free_decay(y: np.ndarray) -> bool:
     one channel's does more than a stationary record's would by chance
     (:func:`decaying_channel`: a channel free of the slow modes that hold
     the pooled ratio down)."""
-    y = y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny)
+    y = unit_rms(y)
     tenth = max(y.shape[1] // 10, 1)
     first, last = np.mean(y[:, :tenth] ** 2), np.mean(y[:, -tenth:] ** 2)
     return bool(first > 10.0 * last) or decaying_channel(y)
@@ -117,8 +117,14 @@ def decay_shown(y: np.ndarray) -> bool:
     ratio alone may be a slow, lightly damped random response (the ratio of
     a mode holding about one decay time of the record exceeds 10 by chance):
     fits that assume a free response (the ML refinement, its residual
-    terms, the residual search) are not run on it unless it is labelled one."""
-    return decaying_channel(y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny))
+    terms, the residual search) are not run on it unless it is labelled one.
+    Implies :func:`is_free_decay`."""
+    return decaying_channel(unit_rms(y))
+
+
+def unit_rms(y: np.ndarray) -> np.ndarray:
+    """A record (m, n) with each channel divided by its RMS (about zero)."""
+    return y / np.maximum(np.sqrt(np.mean(y**2, axis=1, keepdims=True)), np.finfo(float).tiny)
 
 
 def decaying_channel(z: np.ndarray) -> bool:
