@@ -336,15 +336,16 @@ def fit(eq: Equations, lines: Lines, p0: np.ndarray,
     ok = np.flatnonzero(~bad)
     std = np.full(u.size, np.nan)
     if ok.size:
-        Ao = A[np.ix_(ok, ok)]
+        do = d[ok]  # A = D A_s D: solved in the column-scaled form, whose conditioning the rank test bounds
+        As = A[np.ix_(ok, ok)] / np.outer(do, do)
         s = (np.conj(J[:, :, ok]) * r[:, :, None]).sum(axis=1).real  # (B, n_ok)
         clusters = np.unique(lines.cluster, return_inverse=True)[1]
         summed = np.zeros((clusters.max() + 1, ok.size))
         np.add.at(summed, clusters, s)
-        z = la.solve(Ao, summed.T, assume_a="pos")
+        z = la.solve(As, summed.T / do[:, None], assume_a="pos") / do[:, None]
         n_c = summed.shape[0]
         sandwich = np.sqrt(np.sum(z**2, axis=1) * n_c / max(1, n_c - ok.size))
-        classical = np.sqrt(np.diag(la.inv(Ao)) * c / dof)
+        classical = np.sqrt(np.diag(la.inv(As)) / do**2 * c / dof)
         std[ok] = np.maximum(sandwich, classical)
         info_se = {"clusters": int(n_c), "sandwich_over_model": float(np.median(sandwich / classical))}
     else:
