@@ -39,7 +39,8 @@ def test_a_loosely_coherent_cluster_without_a_peak_is_listed_apart(monkeypatch):
     (``COHERENT`` 0) it is reported."""
     rec, result = _identify(800224)
     assert np.all(np.min(np.abs(np.array(result.omega)[:, None] / rec["omega"] - 1), axis=1) < 0.05)
-    noise = [r for r in result.details["rejected"] if abs(r["omega"] - 50.6) < 0.5]
+    noise = [r for r in result.details["rejected"]
+             if abs(r["omega"] - 50.6) < 0.5 and not r["reason"].startswith("deflated pass")]  # the first pass's
     assert len(noise) == 1 and "under 0.8" in noise[0]["reason"] and "no spectral peak" in noise[0]["reason"]
     monkeypatch.setattr(modal.support, "COHERENT", 0.0)
     loose = modal.identify([modal_fuzz.unseen_trace(rec)])

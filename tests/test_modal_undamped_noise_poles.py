@@ -22,7 +22,8 @@ def test_a_stable_pole_without_a_peak_whose_damping_is_not_told_from_zero_is_lis
     result = modal.identify([modal_fuzz.unseen_trace(rec)])
     assert result.omega, "the one lightly damped true mode in range is reported"
     assert np.all(np.min(np.abs(np.array(result.omega)[:, None] / rec["omega"] - 1), axis=1) < 0.01)
-    apart = [r for r in result.details["rejected"] if abs(r["omega"] / noise - 1) < 0.01]
+    apart = [r for r in result.details["rejected"]
+             if abs(r["omega"] / noise - 1) < 0.01 and not r["reason"].startswith("deflated pass")]  # first pass
     assert len(apart) == 1
     assert apart[0]["reason"].startswith("damping not told from 0") and "no spectral peak" in apart[0]["reason"]
     assert min(abs(noise / rec["omega"] - 1)) > 0.3  # no true mode there

@@ -57,7 +57,11 @@ Steps (each its own module):
    decay, needed beside its neighbours, :mod:`identifier.modal.decay_pairs`; then the modes SSI missed,
    found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
    of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
-   ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency.
+   ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency;
+6. spatial deflation (stationary records, with the jackknife's replicate test on, :mod:`.deflation`): the
+   RMS-scaled records projected off the spans of the reported modes' complex shapes are identified again
+   by steps 0-5; a mode found there that is resolved from every reported one is added
+   (``details["deflation"]``), what that pass rejected is listed in ``details["rejected"]``.
 
 Each channel's mean is removed from a stationary record (neither a free
 decay nor labelled a free response: stationary covariances are about the
@@ -89,71 +93,31 @@ from collections.abc import Sequence
 import numpy as np
 
 from structbench.models import Model
-from structbench.models.channels import QUANTITIES as RESPONSES
 
 from ..errors import IdentificationError
 from .uncertainty import Replicates, carried, jackknife
-from .close_pairs import FREE_KINDS, split_free_decays
+from .close_pairs import split_free_decays
 from ..io.results import Identification
 from .runtime import one_blas_thread, tune_from_environment
-from .ssi.covariance import covariances, is_free_decay, project, reference_channels, row_projection
+from .ssi.covariance import covariances, project, reference_channels, row_projection
 from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
 from .ssi.hankel import BlockHankel, leading_svd
 from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, rejected as support_rejected, with_bias
 from . import harmonics as periodic
-from . import band_fit, decay_pairs, decay_search, decay_snr, input_output
+from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
 from ..io.traces import Channel, Trace
+from . import sensors
+from .sensors import free_response, sensor_records
 
-QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
+QUANTITIES = sensors.QUANTITIES  # the values of the quantity option
 UNCERTAINTY = ("jackknife", "off")
 COHERENCE = 0.6  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
 COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there
 STEADY = 0.8  # ... unless it is stable at this share of the orders or more
-
-
-def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndarray], list[Channel], float]:
-    """Per trace the outputs (m, n), the channels (of the first trace, sorted
-    by (node, direction)) and dt s. ``quantity``: every sensor of that
-    quantity; ``auto``: at every sensor location (node, direction) one
-    channel, its displacement, else velocity, else acceleration, so that a
-    run whose locations carry different quantities uses them all (each
-    channel is scaled by its RMS before the covariances, and the poles are
-    the same whatever the quantity). One sensor is enough."""
-    if quantity not in QUANTITIES:
-        raise IdentificationError(f"unknown quantity {quantity!r}; known: {', '.join(QUANTITIES)}",
-                                  field="quantity")
-    first = traces[0]
-    if quantity == "auto":
-        best: dict[tuple[int, str], Channel] = {}
-        for q in reversed(QUANTITIES[1:]):  # the preferred quantity last: it wins
-            best.update((c.dof, c) for c in first.select(q))
-        channels = [best[dof] for dof in sorted(best)]
-    else:
-        channels = first.select(quantity)
-    if not channels:
-        raise IdentificationError(f"{first.path.name}: modal identification needs at least 1 "
-                                  f"{quantity if quantity != 'auto' else 'motion'} sensor, found none",
-                                  field="channels")
-    records = []
-    for trace in traces:
-        here = [trace.channel(c.quantity, c.node, c.direction) for c in channels]
-        bad = [c.name for c in here if not np.all(np.isfinite(c.data))]
-        if bad:
-            raise IdentificationError(f"{trace.path.name}: channel {bad[0]} holds NaN or infinite samples",
-                                      field=bad[0])
-        if not np.isclose(trace.dt, first.dt, rtol=1e-9):
-            raise IdentificationError(f"{trace.path.name}: dt {trace.dt} s differs from {first.dt} s",
-                                      field="dt")
-        records.append(np.vstack([c.data for c in here]))
-    if not any(np.ptp(y, axis=1).max() > 0 for y in records):
-        kinds = " and ".join(sorted({c.quantity for c in channels}))
-        raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
-                                  f"no response to identify", field="channels")
-    return records, channels, first.dt
 
 
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
@@ -177,8 +141,13 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
                "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
-    result, pending = _identify(traces, (), **options)
-    return result if result is not None else _identify(traces, tuple(pending), **options)[0]
+
+    def run(these: Sequence[Trace], **changes: str) -> Identification:
+        result, pending = _identify(these, (), **(options | changes))
+        return result if result is not None else _identify(these, tuple(pending), **(options | changes))[0]
+    found = run(traces)  # stationary records: the modes the reported ones hide, with the replicate test on
+    guarded = uncertainty == "jackknife" and drop_unrepeated
+    return deflation.extend(traces, found, quantity, run, COHERENCE) if guarded else found
 
 
 def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: Model | None, quantity: str,
@@ -202,8 +171,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     shortest = min(y.shape[1] for y in records)
     mo = min(m, max(ROW_CHANNELS, r))
     refs = reference_channels(m, r)
-    decay = all(is_free_decay(y) for y in records)
-    free = decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
+    decay, free = free_response(traces, records)
     if not free:  # a stationary record's mean (a sensor offset, a static deflection) is no mode: removed
         records = [y - y.mean(axis=1, keepdims=True) for y in records]
     screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt, known)  # a free response
