@@ -137,7 +137,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     (:mod:`identifier.modal.runtime`). ``input``: ``auto``, ``on`` or ``off``, the measured force scales
     the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``). Records in which
     harmonics turn up only through the SSI modes (:func:`identifier.modal.harmonics.confirm`) are
-    identified again with them subtracted, so that they take no model order from the modes."""
+    identified again with them subtracted, so that they take no model order from the modes. A stationary
+    record is identified once more off the reported modes' shapes (:mod:`.deflation`, step 6)."""
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
                "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
