@@ -146,8 +146,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     def run(these: Sequence[Trace], **changes: str) -> Identification:
         result, pending = _identify(these, (), **(options | changes))
         return result if result is not None else _identify(these, tuple(pending), **(options | changes))[0]
-    found = run(traces)  # stationary records: the modes the reported ones hide, with the replicate test on
-    guarded = uncertainty == "jackknife" and drop_unrepeated
+    found = run(traces)
+    guarded = uncertainty == "jackknife" and drop_unrepeated  # the deflated pass only with the replicate test on
     return deflation.extend(traces, found, quantity, run, COHERENCE) if guarded else found
 
 
