@@ -146,10 +146,10 @@ records, identifier/modal/deflation.py) was measured on the random records
 with 3 or more sensors of the tuning seeds 1,002,000-1,003,999 (1,002,053,
 1,002,106 and 1,003,514 looked at; the added-mode coherence rule was
 chosen on 1,003,514) and confirmed on those of 1,006,000-1,007,999
-(docs/modal-method.md, Seventeenth round); seeds 1,011,000-1,011,999
-were fresh for that code's check (docs/modal-method.md, Held-out check),
-its two records with an invented mode looked at after it. Seeds
-1,012,000 and above have never been run.
+(docs/modal-method.md, Seventeenth round); seeds 1,011,000-1,012,999
+were fresh for that code's check (two sets of 1,000; docs/modal-method.md,
+Held-out check), its three records with an invented mode looked at after
+it. Seeds 1,013,000 and above have never been run.
 """
 from __future__ import annotations
 
