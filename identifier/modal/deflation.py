@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import IdentificationError
 from ..io.results import Identification
 from ..io.traces import Channel, Trace
+from .refine import complex_poles
 from .sensors import free_response, sensor_records
 from .ssi.poles import mpc, real_shapes
 
@@ -156,7 +157,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str,
         return result
     omega = np.array(result.omega + deflated.omega)
     zeta = np.array(result.damping + deflated.damping)
-    poles = np.exp((-zeta * omega + 1j * omega * np.sqrt(1 - np.minimum(zeta, 1.0) ** 2)) * dt)
+    poles = np.exp(complex_poles(omega, zeta) * dt)
     pseudo = np.array(deflated.mode_shapes_complex) @ np.array([1.0, 1j])  # (k', m')
     k = len(result.omega)
     added = []
