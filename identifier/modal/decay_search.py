@@ -48,8 +48,13 @@ heavily damped modes fitted by fewer poles) leaves a residual that one
 more pole fits better than the residual variance says; misses a mode
 weaker than the threshold, one not resolved from a reported pole (two
 heavily damped modes closer than their bandwidths), or one of under
-``MIN_DECAYS`` decay times. Records without a reported mode, or not free
-decays (:func:`identifier.modal.refine.free_starts`), are not searched.
+``MIN_DECAYS`` decay times. A record with no reported mode (in a short
+record of one channel SSI has one model order and nothing is stable) is
+searched from the empty model: the residual is the whole record's past the
+nuisance poles, and each candidate is tested against offset, drift and
+nuisance terms alone (:func:`alone`, the same F test without neighbours).
+Records that are not free decays (:func:`identifier.modal.refine.free_starts`)
+are not searched.
 """
 from __future__ import annotations
 
@@ -57,10 +62,11 @@ import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.stats import f as fisher
 
 from ..io.traces import Trace
 from .close_pairs.free_decay_fit import omega_zeta
-from .decay_pairs import pvalues, screen, stretch
+from .decay_pairs import MIN_SAMPLES, pvalues, screen, stretch
 from .decay_snr import screen as matched_filter
 from .ml_fit import VarPro, fit_poles, select
 from .ml_residual import missing_poles
@@ -136,12 +142,10 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     added: list[dict] = []
     for _ in range(MAX_ADDED):
         modelled = ml.modelled
-        if not modelled.any():
-            break
         poles = complex_poles(ml.omega[modelled], ml.zeta[modelled])
         if not ml.details.get("applied"):
             nuisance = nuisance_poles([(r["omega"], r["zeta"]) for r in rejected], poles, dt, length)
-        n = int(np.ceil(DECAYS / -np.max(poles.real) / dt))
+        n = int(np.ceil(DECAYS / -np.max(poles.real) / dt)) if poles.size else max(y.shape[1] for y in records)
         ts, zs, bs = stretch(records, starts, dt, np.concatenate([poles, nuisance]), n)
         extra = np.concatenate([nuisance, missing_poles(ts, zs, np.concatenate([poles, nuisance]), dt, bs)])
         ok = _candidates(extra, poles, dt, length)
@@ -150,7 +154,8 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
         if not ok.any():
             break
         tested = np.arange(poles.size, poles.size + ok.sum())
-        p, _ = pvalues(records, starts, dt, np.concatenate([poles, extra[ok]]), extra[~ok], tested)
+        p = pvalues(records, starts, dt, np.concatenate([poles, extra[ok]]), extra[~ok], tested)[0] if poles.size \
+            else alone(records, starts, dt, extra[ok], extra[~ok])
         p = p[tested] * ok.sum()
         if not np.nanmin(p, initial=np.inf) < ALPHA:
             break
@@ -173,6 +178,33 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
         return ml, []
     ml = dataclasses.replace(ml, details=ml.details | {"search": added})
     return screen(traces, records, dt, ml, rejected, refine)
+
+
+def alone(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, candidates: np.ndarray,
+          nuisance: np.ndarray) -> np.ndarray:
+    """Per candidate pole (complex 1/s) of a record with no reported mode the
+    p-value of the F test of :mod:`.decay_pairs` without neighbours: the
+    candidate free (cost ``f_1``) against the ``nuisance`` poles alone
+    (``f_0``), on ``DECAYS`` decay times of it (at least ``MIN_SAMPLES`` per
+    basis column), ``(n / 2) P(F(2 M + 2, nu) > F)``, before the Bonferroni
+    factor; NaN where the fit does not converge or too few samples are left."""
+    free_len = max(y.shape[1] - s for y, s in zip(records, starts))
+    columns = 2 + 2 * (nuisance.size + 1)
+    out = np.full(candidates.size, np.nan)
+    for i, c in enumerate(candidates):
+        n = int(min(free_len, max(np.ceil(DECAYS / -c.real / dt), MIN_SAMPLES * columns)))
+        ts, zs, bs = stretch(records, starts, dt, np.r_[c, nuisance], n)
+        m = sum(z.shape[1] for z in zs)
+        nu = sum(z.size for z in zs) - m * columns - 2
+        fit = VarPro(ts, zs, nuisance, [select(b, 1 + np.arange(nuisance.size)) for b in bs])
+        lower, upper = pole_bounds(np.r_[c], nuisance, dt)
+        fitted, _, converged, _ = fit_poles(ts, zs, nuisance, np.r_[c], lower, upper, fit=fit)
+        with_c = fit.cost(np.column_stack([fitted.real, fitted.imag]).ravel())
+        if nu <= 0 or not converged or not with_c > 0:
+            continue
+        without = fit.cost(np.zeros(0))
+        out[i] = fisher.sf((without - with_c) / (2 * m + 2) / (with_c / nu), 2 * m + 2, nu) * max(len(t) for t in ts) / 2
+    return out
 
 
 def _added(ml: PoleRefinement, near: np.ndarray, fit: tuple[np.ndarray, ...], length: float,
