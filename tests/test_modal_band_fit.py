@@ -53,3 +53,34 @@ def test_a_biased_broad_pole_gets_errors_that_reach_its_mode() -> None:
     others = [j for j in range(w.size) if j != i]
     assert [result.details["band_fit"][j] for j in others] == [""] * 3
     assert np.all(se[others] < 0.03)
+
+
+def test_the_band_fits_curvature_gives_the_scatter_of_its_pole() -> None:
+    """The band fit's covariance (``band_fit.curvature``) against the
+    scatter of its pole over 100 seeds of one mode (10 rad/s, zeta 0.02,
+    4,096 samples at 0.05 s): the median stated standard error of omega
+    and of zeta within 25 % of the seeds' standard deviation (whose own
+    sampling error is about 7 %)."""
+    omega, zeta, dt, n = 10.0, 0.02, 0.05, 4096
+    lines = 2 * np.pi * np.arange(n // 2 + 1) / (n * dt)
+    fits = [band_fit.band_pole(peak_test.summed_periodogram([_response(s, omega, zeta, dt, n)]), lines,
+                               n * dt, np.array([omega]), np.array([zeta]), 0) for s in range(100)]
+    poles = np.array([f[:2] for f in fits])
+    stated = np.median(np.sqrt([np.diag(f[3]) for f in fits]), axis=0)
+    assert np.all(np.abs(stated / poles.std(axis=0) - 1) < 0.25)
+
+
+def test_a_biased_broad_pole_under_move_errors_is_widened_against_both_fits_errors() -> None:
+    """Held-out profile seed 1,011,930 (fresh for the seventeenth round's
+    check, a tuning seed since): 13 sensors of three quantities, 22,221
+    samples; SSI reports the true 2.870 rad/s, zeta 0.072, at 3.303 +-
+    0.076, zeta 0.097 (invented: 15 % and 5.7 errors off). The band fit puts
+    the pole at 3.008, 3.9 SSI errors away (under ``MOVE``) but 11.9 in
+    chi2_2 against both fits' errors: the errors widen to reach the true
+    mode, the value stays SSI's, the five other modes are unchanged."""
+    result = modal.identify([modal_fuzz.unseen_trace(modal_fuzz.unseen_record(1_011_930))])
+    w, se = np.array(result.omega), np.array(result.omega_std)
+    i = int(np.argmin(np.abs(w - 3.303)))
+    assert abs(w[i] - 3.303) < 0.001 and "widened" in result.details["band_fit"][i]
+    assert abs(w[i] - 2.870) <= 1.96 * se[i] and se[i] > 3 * 0.076
+    assert [result.details["band_fit"][j] for j in range(w.size) if j != i] == [""] * 5
