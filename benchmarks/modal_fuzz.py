@@ -150,8 +150,10 @@ chosen on 1,003,514) and confirmed on those of 1,006,000-1,007,999
 were fresh for that code's check (two sets of 1,000; docs/modal-method.md,
 Held-out check), its three records with an invented mode looked at after
 it; they are tuning seeds now. Issue 21's eighteenth round (the band
-fit's combined-error widening, identifier/modal/band_fit.py) was designed
-on 1,011,930 (1,011,459 and 1,012,927 looked at too) and measured on the
+fit's combined-error widening, identifier/modal/band_fit.py, designed on
+1,011,930; the weak-candidate test's ``TOP_ALPHA``,
+identifier/modal/peak_pairs.py, on 1,011,459, 1,012,927, 1,009,643 and
+1,009,824) was measured on the
 random records of 1,008,000-1,009,999 (docs/modal-method.md, Eighteenth
 round). Seeds 1,013,000 and above have never been run.
 """
