@@ -7,18 +7,13 @@ moves the channels only within ``span{Re psi_r, Im psi_r}`` of its complex
 shape, so projecting the RMS-scaled records ``D^-1 y`` (``D`` the channels'
 RMS) onto the orthogonal complement of those spans removes the reported
 modes' responses in space and keeps the part of every other mode's shape
-outside them. When fewer than ``LEFT`` channels are left, the spans are
-narrowed to each shape's principal real part (rotated to its principal
-direction, :func:`real_shapes`; one dimension per mode): what a mode's
-response leaves in the directions kept (its shape's imaginary part after the
-rotation) shows at that mode, inside its resolution, and is not added. The projected records (``m - rank`` pseudo-channels, at least
+outside them. The projected records (``m - rank`` pseudo-channels, at least
 ``LEFT``) are identified by the same SSI, stabilisation, jackknife and
 support tests (``run``: the caller's identification); a mode found there is
 added when it is resolved from every reported mode ``r``:
 ``|omega - omega_r| > 2 pi / T + zeta omega + zeta_r omega_r`` (the
-record's resolution plus both half-power half-widths) and
-``> 1.96 max(se_r, se)`` (neither frequency inside the other's 95 %
-interval), and its temporal coherence
+record's resolution plus both half-power half-widths) and outside the
+reported mode's 95 % interval ``1.96 se_r``, and its temporal coherence
 reaches the first pass's bar without that pass's exemption for modes stable
 at most orders. Its frequency, damping and
 their standard errors are the deflated pass's (the same jackknife and bias
@@ -52,14 +47,13 @@ PER_MODE = ("orders", "support", "coherence", "refined", "band_fit")  # details 
 # the lists of details["ml_refinement"])
 
 
-def complement(shapes: np.ndarray, scale: np.ndarray, principal: bool = False) -> np.ndarray:
+def complement(shapes: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """Orthonormal basis (m, m - rank) of the complement of the spans
     ``{Re, Im}`` of the scaled shapes ``shapes / scale`` ((m, k) complex,
-    (m,) channel RMS), or with ``principal`` of their real parts rotated to
-    the principal direction (:func:`real_shapes`: one dimension per mode);
-    rank by the SVD at ``max(m, 2k) eps`` of the largest singular value."""
+    (m,) channel RMS); rank by the SVD at ``max(m, 2k) eps`` of the largest
+    singular value."""
     scaled = shapes / scale[:, None]
-    spans = real_shapes(scaled) if principal else np.column_stack([scaled.real, scaled.imag])
+    spans = np.column_stack([scaled.real, scaled.imag])
     U, s, _ = np.linalg.svd(spans, full_matrices=True)
     rank = int(np.sum(s > s.max(initial=0.0) * max(spans.shape) * np.finfo(float).eps)) if s.size else 0
     return U[:, rank:]
@@ -76,19 +70,15 @@ def pseudo_traces(traces: Sequence[Trace], projected: list[np.ndarray]) -> list[
     return [one(t, z) for t, z in zip(traces, projected)]
 
 
-def resolved(omega: float, zeta: float, omega_std: float, reported: Identification, length: float) -> str:
-    """Why the deflated mode (omega rad/s, zeta, omega_std rad/s) is not
-    resolved from a reported mode of a record of ``length`` s, or ``""``
-    when it is: within the resolution plus half-widths, or either mode's
-    frequency inside the other's 95 % interval."""
+def resolved(omega: float, zeta: float, reported: Identification, length: float) -> str:
+    """Why the deflated mode (omega rad/s, zeta) is not resolved from a
+    reported mode of a record of ``length`` s, or ``""`` when it is."""
     for w, z, se in zip(reported.omega, reported.damping, reported.omega_std):
         gap = abs(omega - w)
         if gap <= 2 * np.pi / length + zeta * omega + z * w:
             return f"within the resolution 2 pi / T plus half-widths of the reported mode at {w:.6g} rad/s"
         if gap <= 1.96 * se:
             return f"within the 95 % interval of the reported mode at {w:.6g} rad/s"
-        if gap <= 1.96 * omega_std:
-            return f"its 95 % interval holds the reported mode at {w:.6g} rad/s"
     return ""
 
 
@@ -136,9 +126,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str,
     scale = np.where(scale > 0, scale, 1.0)
     shapes = np.array(result.mode_shapes_complex) @ np.array([1.0, 1j])  # (k, m)
     basis = complement(shapes.T, scale)
-    principal = basis.shape[1] < LEFT  # too few channels off the full spans: off the principal real parts
-    basis = complement(shapes.T, scale, principal) if principal else basis
-    info: dict = {"channels_left": basis.shape[1], "principal": principal, "added": [False] * len(result.omega)}
+    info: dict = {"channels_left": basis.shape[1], "added": [False] * len(result.omega)}
     result.details["deflation"] = info
     if basis.shape[1] < LEFT:
         info["skipped"] = f"{basis.shape[1]} channel(s) left after removing the reported modes (needs {LEFT})"
@@ -159,7 +147,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str,
         if (c := deflated.details["coherence"][j]) < coherent:
             why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
         else:
-            why = resolved(w, z, deflated.omega_std[j], result, length)
+            why = resolved(w, z, result, length)
         if why:
             rejected.append({"omega": w, "zeta": z, "reason": f"deflated pass: {why}"})
         else:
