@@ -157,11 +157,12 @@ identifier/modal/peak_pairs.py, on 1,011,459, 1,012,927, 1,009,643 and
 random records of 1,008,000-1,009,999 (docs/modal-method.md, Eighteenth
 round); its search of free decays with nothing reported
 (identifier/modal/decay_search.py, designed on 1,011,911 and 1,012,232)
-on the free decays of 1,004,000-1,010,999 where nothing was reported, and
-its deflation off the principal real parts (identifier/modal/deflation.py,
-designed on 1,011,000-1,011,999's misses, 1,002,535 and 1,006,139) on the
+on the free decays of 1,004,000-1,010,999 where nothing was reported; a
+deflation off the principal real parts (tried, not adopted; designed on
+1,011,000-1,011,999's misses, 1,002,535, 1,006,139 and 1,009,443) on the
 random records with 3 or more sensors of 1,002,000-1,003,999 and
-1,006,000-1,007,999. Seeds 1,013,000 and above have never been run.
+1,006,000-1,007,999, and all of this round's changes together on
+1,008,000-1,009,999. Seeds 1,013,000 and above have never been run.
 """
 from __future__ import annotations
 
