@@ -6,6 +6,8 @@ Carlo); the held-out record 1,006,369's pole over two modes is listed
 apart."""
 from __future__ import annotations
 
+import warnings
+
 import modal_fuzz
 import numpy as np
 from modal_synth import forced
@@ -78,3 +80,17 @@ def test_the_held_out_pole_over_two_modes_is_listed_apart():
     assert len(result.omega) == 0
     split = [r for r in result.details["rejected"] if r["reason"].startswith("its band holds two modes")]
     assert len(split) == 1 and abs(split[0]["omega"] - 4.223) < 0.01
+
+
+
+def test_a_start_wholly_outside_the_bounds_gives_no_fit_and_no_warning():
+    """A Nelder-Mead simplex whose every vertex lies outside the bounds has an
+    infinite cost at each (``inf - inf`` in scipy's stop test: "invalid value
+    encountered in subtract", seen on held-out seeds 1,013,352, 1,013,669
+    and 1,013,711): the start yields no fit, and no warning reaches the caller."""
+    w = np.linspace(9.0, 11.0, 40)
+    P = 1.0 + np.sum(peak_split.terms(w, [(10.0, 0.02)]), axis=0)  # one oscillator term on a flat floor
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        value, poles = peak_split._fit(P, np.ones((w.size, 1)), w, 1, [[(20.0, 0.5)]], (9.0, 11.0, 0.01, 0.05))
+    assert value == -np.inf and poles == []

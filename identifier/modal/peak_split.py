@@ -97,9 +97,10 @@ def _fit(P: np.ndarray, X0: np.ndarray, w: np.ndarray, size: int, starts: list[l
         last: list[np.ndarray | None] = [None]  # the amplitudes of the previous step start the next fit
         x0 = np.array([v for p, z in start for v in (p / unit, np.log(z))])
         step = np.array([v for p, z in start for v in (0.5 * z * p / unit, 0.5)])
-        out = minimize(value, x0, method="Nelder-Mead",
-                       options={"initial_simplex": np.vstack([x0, x0 + np.diag(step)]), "maxfev": 60 * x0.size,
-                                "xatol": 0.05, "fatol": 0.01})
+        with np.errstate(invalid="ignore"):  # a simplex wholly outside the bounds: inf - inf in its stop test
+            out = minimize(value, x0, method="Nelder-Mead",
+                           options={"initial_simplex": np.vstack([x0, x0 + np.diag(step)]), "maxfev": 60 * x0.size,
+                                    "xatol": 0.05, "fatol": 0.01})
         if -out.fun > best[0]:
             best = (-out.fun, [(out.x[i] * unit, np.exp(out.x[i + 1])) for i in range(0, out.x.size, 2)])
     return best
