@@ -73,6 +73,14 @@ ALPHA = 0.001  # chance per record that a false mode beside true ones is kept (o
 MIN_SAMPLES = 16  # least samples per basis column in the fitted stretch
 
 
+def extra_ss_pvalue(without: float, with_: float, m: int, nu: int, n: int) -> float:
+    """The module docstring's F test of one pole's extra sum of squares
+    (costs ``without`` and ``with_`` it, ``m`` channel records, ``nu``
+    residual degrees of freedom) times the look-elsewhere factor ``n / 2``
+    of a stretch of ``n`` samples."""
+    return float(fisher.sf((without - with_) / (2 * m + 2) / (with_ / nu), 2 * m + 2, nu) * n / 2)
+
+
 def _cost(fit: VarPro, free: np.ndarray, fixed: np.ndarray, dt: float) -> tuple[float, np.ndarray, bool]:
     """The weighted residual sum of squares with the poles ``free`` fitted
     by ML (bounds of :func:`identifier.modal.refine.pole_bounds`), ``fixed``
@@ -138,8 +146,7 @@ def pvalues(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, pol
             continue
         without_b, one, ok_0 = _cost(fit, fitted[1:], fixed, dt)
         if ok_0:
-            f = (without_b - with_b) / (2 * m + 2) / (with_b / nu)
-            out[b] = fisher.sf(f, 2 * m + 2, nu) * max(len(t) for t in ts) / 2
+            out[b] = extra_ss_pvalue(without_b, with_b, m, nu, max(len(t) for t in ts))
             over = np.abs(one - poles[b]) < np.abs(one - poles[near])
             if over.any():  # the neighbour that came nearest b, relative to its own distance from it
                 drop[b] = near[over][np.argmin((np.abs(one - poles[b]) / np.abs(poles[near] - poles[b]))[over])]

@@ -62,11 +62,10 @@ import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.stats import f as fisher
 
 from ..io.traces import Trace
 from .close_pairs.free_decay_fit import omega_zeta
-from .decay_pairs import MIN_SAMPLES, pvalues, screen, stretch
+from .decay_pairs import MIN_SAMPLES, extra_ss_pvalue, pvalues, screen, stretch
 from .decay_snr import screen as matched_filter
 from .ml_fit import VarPro, fit_poles, select
 from .ml_residual import missing_poles
@@ -203,7 +202,7 @@ def alone(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, candi
         if nu <= 0 or not converged or not with_c > 0:
             continue
         without = fit.cost(np.zeros(0))
-        out[i] = fisher.sf((without - with_c) / (2 * m + 2) / (with_c / nu), 2 * m + 2, nu) * max(len(t) for t in ts) / 2
+        out[i] = extra_ss_pvalue(without, with_c, m, nu, max(len(t) for t in ts))
     return out
 
 
