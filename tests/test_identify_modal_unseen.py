@@ -124,17 +124,18 @@ def test_heavily_damped_mode_of_a_random_response_is_kept(monkeypatch):
     assert result.details["coherence"][int(np.argmin(found))] > 0.9
 
 
-@pytest.mark.parametrize("kind, count", [("decay", 12), ("stationary", 8)])
+@pytest.mark.parametrize("kind, count", [("decay", 8), ("stationary", 3)])
 def test_short_fuzz_profile(kind, count):
-    """The fuzz benchmark's first structures (a fixed short profile; the
-    benchmark runs 200 of each kind): every mode whose peak stands out of
-    the noise is found within 1 %, none is invented, and the worst error
+    """The fuzz benchmark's first structures (a fixed short profile: 8 free
+    decays, 3 random responses of 2,000 periods, 35 and 21 visible modes;
+    the benchmark runs 200 of each kind): every mode whose peak stands out
+    of the noise is found within 1 %, none is invented, and the worst error
     of those stays within what such records allow (free decays 0.1 %:
-    0.04 % here, 0.18 % at most in the benchmark's 200; random responses
-    of 2,000 periods 0.5 %). Modes under the noise are not bounded: when
-    found they lie within 1 %, and where (0.03-0.19 % here) moves with the
-    subspace iteration's random probe (another Gaussian draw moved one
-    from 0.13 % to 0.21 %; the exact SVD gives 0.24 % for another)."""
+    0.03 % here, 0.18 % at most in the benchmark's 200; random responses
+    0.5 %: 0.28 % here). Modes under the noise are not bounded: when found
+    they lie within 1 %, and where moves with the subspace iteration's
+    random probe (another Gaussian draw moved one from 0.13 % to 0.21 %;
+    the exact SVD gives 0.24 % for another)."""
     rows = [modal_fuzz.run(kind, seed) for seed in range(count)]
     assert all("error" not in r for r in rows)
     assert sum(r["found"] for r in rows) == sum(r["visible"] for r in rows) > 3 * count

@@ -112,11 +112,12 @@ def test_case1_noisy_improves_in_90_percent(tmp_path, truth):
 
 
 def test_case2_noisy_improves_in_90_percent(tmp_path, truth):
-    """0.01 % sensor noise, 0.0005 % actuator noise on amplitude and frequency."""
+    """0.01 % sensor noise, 0.0005 % actuator noise on amplitude and frequency
+    (10 seeds: 24 stepped-sine tests each)."""
     initial = nrms(postulated("case2").values[postulated("case2").kind_mask()], truth["case2"])
     final = [nrms(identify(stepped_sine("case2", tmp_path, CASE2_OMEGAS, sensor_noise=1e-4, actuator_noise=5e-6,
                                         seed=s), postulated("case2"), max_iterations=10,
-                           natural_frequencies=True).values(), truth["case2"]) for s in SEEDS]
+                           natural_frequencies=True).values(), truth["case2"]) for s in SEEDS[:10]]
     assert np.mean(np.array(final) < initial) >= 0.9
 
 
