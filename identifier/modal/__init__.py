@@ -34,10 +34,9 @@ Steps (each its own module):
    stable at orders far past the structure's (a response that dies out
    early in a long record, few modes on many sensors) and seldom at
    ``STEADY`` (80 %) of the orders or more: a mode stable there is exempt,
-   unless it lies at or above every
-   candidate of coherence ``COHERENCE`` or more (there a record holds only
-   background, where the covariance noise's poles gather stable at most
-   orders: 1,013,201's 131.7 rad/s, coherence 0.29). A mode's coherence is the
+   unless it lies at or above every candidate of coherence ``COHERENCE`` or
+   more (there a record holds only background, where the covariance noise's
+   poles gather stable at most orders). A mode's coherence is the
    median over ``COHERENCE_ORDERS`` of its orders, spread over those it is
    stable at, of its most coherent pole at each: one pole is no measure
    (within one heavily damped mode of a random response it ranges from 0.3
