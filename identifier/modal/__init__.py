@@ -61,7 +61,11 @@ Steps (each its own module):
    found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
    of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
    ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency;
-6. spatial deflation (stationary records, with the jackknife's replicate test on, :mod:`.deflation`): the
+6. a short-lag pass (stationary records, with the jackknife's replicate test on, block rows not given,
+   :mod:`.short_lags`): steps 0-5 again with a quarter of the block rows; a mode found there that is resolved
+   from every reported one and no nearer than 5 % to any is added (``details["short_lags"]``): long lags, set by
+   a light low mode, leave a broad or high mode's covariance to estimation noise;
+7. spatial deflation (stationary records, with the jackknife's replicate test on, :mod:`.deflation`): the
    RMS-scaled records projected off the spans of the reported modes' complex shapes are identified again
    by steps 0-5; a mode found there that is resolved from every reported one is added
    (``details["deflation"]``), what that pass rejected is listed in ``details["rejected"]``.
@@ -109,7 +113,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, rejected as support_rejected, with_bias
 from . import harmonics as periodic
-from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output
+from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output, short_lags
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
 from ..io.traces import Channel, Trace
@@ -149,7 +153,8 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``). Records in which
     harmonics turn up only through the SSI modes (:func:`identifier.modal.harmonics.confirm`) are
     identified again with them subtracted, so that they take no model order from the modes. A stationary
-    record is identified once more off the reported modes' shapes (:mod:`.deflation`, step 6)."""
+    record is identified once more with a quarter of the block rows (:mod:`.short_lags`, step 6) and off the
+    reported modes' shapes (:mod:`.deflation`, step 7)."""
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
                "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
@@ -158,8 +163,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
         result, pending = _identify(these, (), **(options | changes))
         return result if result is not None else _identify(these, tuple(pending), **(options | changes))[0]
     found = run(traces)
-    guarded = uncertainty == "jackknife" and drop_unrepeated  # the deflated pass only with the replicate test on
-    return deflation.extend(traces, found, quantity, run, COHERENCE) if guarded else found
+    if not (uncertainty == "jackknife" and drop_unrepeated):  # the further passes only with the replicate test on
+        return found
+    found = short_lags.extend(traces, found, quantity, block_rows is not None, run, COHERENCE)
+    return deflation.extend(traces, found, quantity, run, COHERENCE)
 
 
 def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: Model | None, quantity: str,

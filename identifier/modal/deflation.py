@@ -165,12 +165,14 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str,
         lags = int(np.clip(np.ceil(2.0 / (zeta[k + j] * omega[k + j] * dt)), 4 * poles.size,
                            min(y.shape[1] for y in records) // 4))
         added.append(full_shape(records, scale, real_shapes(pseudo[j][:, None])[:, 0], basis, poles, k + j, lags))
-    return merged(result, deflated, new, np.array(added).T)
+    return merged(result, deflated, new, np.array(added).T, "deflation")
 
 
-def merged(result: Identification, deflated: Identification, new: list[int], shapes: np.ndarray) -> Identification:
-    """``result`` with the deflated pass's modes ``new`` and their shapes (m, len(new))
-    on the original channels added, every per-mode list sorted by frequency."""
+def merged(result: Identification, deflated: Identification, new: list[int], shapes: np.ndarray, key: str,
+           shapes_std: list | None = None) -> Identification:
+    """``result`` with another pass's modes ``new`` (of ``deflated``) and their shapes (m, len(new))
+    on the original channels added (shape standard errors ``shapes_std``, one list per added mode,
+    else NaN), every per-mode list sorted by frequency; ``details[key]["added"]`` marks them."""
     order = np.argsort(result.omega + [deflated.omega[j] for j in new], kind="stable")
 
     def joined(mine: list, theirs: list) -> list:
@@ -184,11 +186,15 @@ def merged(result: Identification, deflated: Identification, new: list[int], sha
     fields["mode_shapes_complex"] = joined(result.mode_shapes_complex,
                                            [[[float(v.real), float(v.imag)] for v in col] for col in shapes.T])
     fields["mode_shapes"] = joined(result.mode_shapes, real_shapes(shapes).T.tolist())
-    fields["mode_shapes_std"] = joined(result.mode_shapes_std, [[float("nan")] * shapes.shape[0]] * len(new))
+    nan = [[float("nan")] * shapes.shape[0]] * len(new)
+    fields["mode_shapes_std"] = joined(result.mode_shapes_std, shapes_std if shapes_std is not None else nan)
     fields["mpc"] = joined(result.mpc, mpc(shapes).tolist())
     details = result.details | {key: both(result.details[key], deflated.details[key]) for key in PER_MODE}
     ml, theirs = details["ml_refinement"], deflated.details["ml_refinement"]
     details["ml_refinement"] = ml | {key: both(value, theirs[key]) for key, value in ml.items()
                                      if isinstance(value, list) and len(value) == len(result.omega)}
-    details["deflation"] = details["deflation"] | {"added": joined(details["deflation"]["added"], [True] * len(new))}
+    details[key] = details[key] | {"added": joined(details[key]["added"], [True] * len(new))}
+    for other in {"deflation", "short_lags"} - {key}:  # a pass that ran before: its flags follow the modes
+        if other in details and "added" in details[other]:
+            details[other] = details[other] | {"added": joined(details[other]["added"], [False] * len(new))}
     return replace(result, **fields, details=details)

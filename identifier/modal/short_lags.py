@@ -1,0 +1,89 @@
+"""A second pass over a stationary record with a quarter of the block rows: the broad modes long lags hide.
+
+The first pass sizes its Hankel matrix for the record's slowest covariances
+(:mod:`.ssi.design`: lags that span a quarter period of the lowest frequency
+carrying power, as long as they stand out of their estimation noise). A
+lightly damped low mode thus sets lags of tens of its periods, while a
+well-damped or high mode's covariance ``R_l ~ exp(-zeta omega l dt)`` is gone
+after a few decay times: past them its block rows hold only estimation
+noise, and SSI spends its orders on that noise's poles around the mode
+(several light poles over one broad peak, each failing the support tests)
+instead of fitting the mode once. The pass identifies the records again by
+the same steps 0-5 with ``p / 4`` block rows (``p`` the first pass's; the
+columns still reach the quarter period, :func:`.ssi.design.block_sizes`)
+and adds a mode found there when
+
+- its temporal coherence reaches the first pass's bar ``coherent`` without
+  that pass's exemption for modes stable at most orders (as the deflated
+  pass, :mod:`.deflation`), and
+- no reported mode lies within ``NEAR`` (5 %) of it (such a mode is the
+  reported one, not listed again: the shorter lags bias a mode both passes
+  see by up to a few per cent, and it must not come twice) nor within the
+  record's resolution plus both half-power half-widths or the reported
+  mode's 95 % interval (:func:`.deflation.resolved`).
+
+Its frequency, damping, shape and their standard errors are the second
+pass's (the same jackknife and bias terms). Skipped (``details["short_lags"]``
+says why) for free responses, when the caller fixed ``block_rows``, when
+``p / 4`` is under ``MIN_ROWS``, or when the pass refuses the records.
+Fails (misses the mode) where the first pass's lags were right for it and
+it is weak beside a stronger mode within 5 %.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..errors import IdentificationError
+from ..io.results import Identification
+from ..io.traces import Trace
+from .deflation import merged, resolved
+from .sensors import free_response, sensor_records
+
+SHORTER = 4  # the pass's block rows: the first pass's over this
+MIN_ROWS = 8  # least block rows of the pass
+NEAR = 0.05  # no reported mode within this relative distance of an added one
+
+
+def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed_rows: bool,
+           run: Callable[..., Identification], coherent: float) -> Identification:
+    """``result`` of a stationary record with the modes its short-lag pass
+    finds added (module docstring); ``details["short_lags"]`` says what the
+    pass did, ``details["rejected"]`` gains what it saw and rejected.
+    ``run(traces, **options)``: the identification to repeat; ``fixed_rows``:
+    the caller gave the block rows (then nothing is done)."""
+    records, _, _ = sensor_records(traces, quantity)
+    if free_response(traces, records)[1] or fixed_rows \
+            or not result.details["input_output"]["input"].startswith("off"):
+        return result
+    rows = int(result.details["block_rows"]) // SHORTER
+    info: dict = {"block_rows": rows, "added": [False] * len(result.omega)}
+    result.details["short_lags"] = info
+    if rows < MIN_ROWS:
+        info["skipped"] = f"{rows} block rows (needs {MIN_ROWS})"
+        return result
+    try:
+        second = run(traces, block_rows=rows)
+    except IdentificationError as err:
+        info["skipped"] = f"the short-lag pass refused the records: {err}"
+        return result
+    reported = np.array(result.omega)
+    rejected, new = [], []
+    for j, (w, z) in enumerate(zip(second.omega, second.damping)):
+        if np.any(np.abs(reported - w) <= NEAR * w):
+            continue  # a mode the first pass reports (not listed again)
+        if (c := second.details["coherence"][j]) < coherent:
+            why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
+        else:
+            why = resolved(w, z, result, result.details["record_s"])
+        if why:
+            rejected.append({"omega": w, "zeta": z, "reason": f"short-lag pass: {why}"})
+        else:
+            new.append(j)
+    rejected += [dict(r, reason=f"short-lag pass: {r['reason']}") for r in second.details["rejected"]]
+    result.details["rejected"] = sorted(result.details["rejected"] + rejected, key=lambda r: r["omega"])
+    if not new:
+        return result
+    shapes = np.array([second.mode_shapes_complex[j] for j in new]) @ np.array([1.0, 1j])  # (k', m)
+    return merged(result, second, new, shapes.T, "short_lags", [second.mode_shapes_std[j] for j in new])

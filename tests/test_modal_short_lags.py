@@ -1,0 +1,47 @@
+"""The short-lag pass of stationary records (identifier/modal/short_lags.py;
+issue 21 item 3, nineteenth round).
+
+Record 1,015,094 is a tuning seed of ``benchmarks/modal_fuzz.py --kind
+unseen`` (2 sensors, displacement and velocity, 15,706 samples): a light
+21.56 rad/s mode (``zeta`` 0.0012) sets lags of 628 block rows, over which
+the broad 49.17 rad/s mode (``zeta`` 0.018, 69 % of the mean square) is
+fitted as several light noise poles that fail the support tests; with 157
+block rows it is one mode. Record 1,015,050 (2 sensors): the strong light
+86.47 rad/s mode's cluster took in noise poles of negative damping and was
+dropped as a harmonic by its damping; the short-lag pass reports it.
+"""
+from __future__ import annotations
+
+import modal_fuzz
+import numpy as np
+import pytest
+
+from structbench.identifier import modal
+from structbench.identifier.modal import short_lags
+
+
+@pytest.mark.parametrize("seed, mode", [(1015094, 1), (1015050, 1)])
+def test_a_mode_long_lags_hide_is_found_within_its_intervals(seed, mode, monkeypatch):
+    rec = modal_fuzz.unseen_record(seed)
+    trace = modal_fuzz.unseen_trace(rec)
+    result = modal.identify([trace])
+    w, se = np.array(result.omega), np.array(result.omega_std)
+    z, sz = np.array(result.damping), np.array(result.damping_std)
+    i = int(np.argmin(np.abs(w - rec["omega"][mode])))
+    assert result.details["short_lags"]["added"][i]
+    assert abs(w[i] - rec["omega"][mode]) <= 1.96 * se[i] and abs(z[i] - rec["zeta"][mode]) <= 1.96 * sz[i]
+    assert np.all(np.isfinite(result.mode_shapes_std[i]))
+    assert len(w) == len(rec["omega"])  # every true mode once, nothing else
+    assert modal_fuzz.unseen(seed)["invented"] == 0
+    monkeypatch.setattr(short_lags, "MIN_ROWS", 10**6)  # no short-lag pass: the mode is missed
+    first = np.array(modal.identify([trace]).omega)
+    assert np.abs(first - rec["omega"][mode]).min() > 0.01 * rec["omega"][mode]
+
+
+def test_no_pass_when_the_block_rows_are_given_or_for_a_free_decay():
+    rec = modal_fuzz.unseen_record(1015094)
+    given = modal.identify([modal_fuzz.unseen_trace(rec)], block_rows=200)
+    assert "short_lags" not in given.details
+    decay = modal_fuzz.unseen_record(1015003)  # a free decay of 49 sensors
+    assert decay["kind"] == "decay"
+    assert "short_lags" not in modal.identify([modal_fuzz.unseen_trace(decay)]).details
