@@ -64,8 +64,8 @@ def _strong_pair(seed: int) -> Trace:
 
 def test_deflated_and_short_lag_passes_add_nothing_to_strong_modes_alone():
     """Seeds 0-19 (the short profile; on seeds 0-49 the deflated pass gave none a mode): at most one
-    record gets a mode from either pass (identifier/modal/short_lags.py runs before the deflation)."""
-    details = [modal.identify([_strong_pair(seed)]).details for seed in range(20)]
+    record gets a mode from either pass (identifier/modal/short_lags.py, opt-in, runs before the deflation)."""
+    details = [modal.identify([_strong_pair(seed)], short_lags="on").details for seed in range(20)]
     for key in ("deflation", "short_lags"):
         assert sum(sum(d[key]["added"]) > 0 for d in details) <= 1, key
 

@@ -1,5 +1,5 @@
-"""The short-lag pass of stationary records (identifier/modal/short_lags.py;
-issue 21 item 3, nineteenth round).
+"""The short-lag pass of stationary records (identifier/modal/short_lags.py,
+opt-in: ``short_lags="on"``; issue 21 item 3, nineteenth round).
 
 Record 1,015,094 is a tuning seed of ``benchmarks/modal_fuzz.py --kind
 unseen`` (2 sensors, displacement and velocity, 15,706 samples): a light
@@ -24,7 +24,7 @@ from structbench.identifier.modal import short_lags
 def test_a_mode_long_lags_hide_is_found_within_its_intervals(seed, mode, monkeypatch):
     rec = modal_fuzz.unseen_record(seed)
     trace = modal_fuzz.unseen_trace(rec)
-    result = modal.identify([trace])
+    result = modal.identify([trace], short_lags="on")
     w, se = np.array(result.omega), np.array(result.omega_std)
     z, sz = np.array(result.damping), np.array(result.damping_std)
     i = int(np.argmin(np.abs(w - rec["omega"][mode])))
@@ -32,16 +32,21 @@ def test_a_mode_long_lags_hide_is_found_within_its_intervals(seed, mode, monkeyp
     assert abs(w[i] - rec["omega"][mode]) <= 1.96 * se[i] and abs(z[i] - rec["zeta"][mode]) <= 1.96 * sz[i]
     assert np.all(np.isfinite(result.mode_shapes_std[i]))
     assert len(w) == len(rec["omega"])  # every true mode once, nothing else
-    assert modal_fuzz.unseen(seed)["invented"] == 0
-    monkeypatch.setattr(short_lags, "MIN_ROWS", 10**6)  # no short-lag pass: the mode is missed
-    first = np.array(modal.identify([trace]).omega)
-    assert np.abs(first - rec["omega"][mode]).min() > 0.01 * rec["omega"][mode]
+    assert len(modal_fuzz.match(w, se, rec["omega"])) == w.size
+    default = modal.identify([trace])  # the default runs no such pass and misses the mode
+    assert "short_lags" not in default.details
+    assert np.abs(np.array(default.omega) - rec["omega"][mode]).min() > 0.01 * rec["omega"][mode]
+    monkeypatch.setattr(short_lags, "MIN_ROWS", 10**6)  # the pass skipped: missed as well
+    skipped = modal.identify([trace], short_lags="on")
+    assert "skipped" in skipped.details["short_lags"] and skipped.omega == default.omega
 
 
 def test_no_pass_when_the_block_rows_are_given_or_for_a_free_decay():
     rec = modal_fuzz.unseen_record(1015094)
-    given = modal.identify([modal_fuzz.unseen_trace(rec)], block_rows=200)
+    given = modal.identify([modal_fuzz.unseen_trace(rec)], block_rows=200, short_lags="on")
     assert "short_lags" not in given.details
     decay = modal_fuzz.unseen_record(1015003)  # a free decay of 49 sensors
     assert decay["kind"] == "decay"
-    assert "short_lags" not in modal.identify([modal_fuzz.unseen_trace(decay)]).details
+    assert "short_lags" not in modal.identify([modal_fuzz.unseen_trace(decay)], short_lags="on").details
+    with pytest.raises(modal.IdentificationError, match="short_lags"):
+        modal.identify([modal_fuzz.unseen_trace(rec)], short_lags="auto")

@@ -85,10 +85,10 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
                     "acceleration (variant velocity) at the same sensors"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto"},
+            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto", "short_lags": "off"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
            {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY,
-            "input": modal.input_output.INPUTS},
+            "input": modal.input_output.INPUTS, "short_lags": modal.SHORT_LAGS},
            model="optional",
            channels="one or more response channels of any quantity (displacement, velocity, acceleration, "
                     "mixed; weighted by their noise); a free decay or a random response; a measured force "

@@ -61,8 +61,8 @@ Steps (each its own module):
    found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
    of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
    ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency;
-6. a short-lag pass (stationary records, with the jackknife's replicate test on, block rows not given,
-   :mod:`.short_lags`): steps 0-5 again with a quarter of the block rows; a mode found there that is resolved
+6. opt-in (``short_lags="on"``), a short-lag pass (stationary records, with the jackknife's replicate test
+   on, block rows not given, :mod:`.short_lags`): steps 0-5 again with a quarter of the block rows; a mode found there that is resolved
    from every reported one and no nearer than 5 % to any is added (``details["short_lags"]``): long lags, set by
    a light low mode, leave a broad or high mode's covariance to estimation noise;
 7. spatial deflation (stationary records, with the jackknife's replicate test on, :mod:`.deflation`): the
@@ -113,7 +113,8 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, rejected as support_rejected, with_bias
 from . import harmonics as periodic
-from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output, short_lags
+from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output
+from . import short_lags as lag_pass
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
 from ..io.traces import Channel, Trace
@@ -122,6 +123,7 @@ from .sensors import free_response, sensor_records
 
 QUANTITIES = sensors.QUANTITIES  # the values of the quantity option
 UNCERTAINTY = ("jackknife", "off")
+SHORT_LAGS = ("off", "on")  # the values of the short_lags option (step 6)
 COHERENCE = 0.6  # least temporal coherence of a reported SSI mode (:func:`identifier.modal.ssi.poles.coherence`)
 COHERENCE_ORDERS = 5  # ... the median over this many of its orders (spread) of its most coherent pole there
 STEADY = 0.8  # ... unless it is stable at this share of the orders or more
@@ -138,7 +140,7 @@ def _exempt(candidates: list[Mode], coherence: list[float], orders: int) -> list
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
              min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto",
-             uncertainty: str = "jackknife", input: str = "auto") -> Identification:
+             uncertainty: str = "jackknife", input: str = "auto", short_lags: str = "off") -> Identification:
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
@@ -153,8 +155,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``). Records in which
     harmonics turn up only through the SSI modes (:func:`identifier.modal.harmonics.confirm`) are
     identified again with them subtracted, so that they take no model order from the modes. A stationary
-    record is identified once more with a quarter of the block rows (:mod:`.short_lags`, step 6) and off the
-    reported modes' shapes (:mod:`.deflation`, step 7)."""
+    record is identified once more off the reported modes' shapes (:mod:`.deflation`, step 7); ``short_lags``
+    ``on`` (opt-in: it invented modes in a free decay taken for stationary) first once more with a quarter of
+    the block rows (:mod:`.short_lags`, step 6)."""
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
                "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
@@ -162,10 +165,14 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     def run(these: Sequence[Trace], **changes: str) -> Identification:
         result, pending = _identify(these, (), **(options | changes))
         return result if result is not None else _identify(these, tuple(pending), **(options | changes))[0]
+    if short_lags not in SHORT_LAGS:
+        raise IdentificationError(f"unknown short_lags {short_lags!r}; known: {', '.join(SHORT_LAGS)}",
+                                  field="short_lags")
     found = run(traces)
     if not (uncertainty == "jackknife" and drop_unrepeated):  # the further passes only with the replicate test on
         return found
-    found = short_lags.extend(traces, found, quantity, block_rows is not None, run, COHERENCE)
+    if short_lags == "on":
+        found = lag_pass.extend(traces, found, quantity, block_rows is not None, run, COHERENCE)
     return deflation.extend(traces, found, quantity, run, COHERENCE)
 
 
