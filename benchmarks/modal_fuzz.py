@@ -170,7 +170,11 @@ its four records with an invented mode looked at after it, and the
 coherence-exemption rule of branch h66 was designed on 1,013,201 and
 1,013,858 and measured on both sets: they are tuning seeds now. Seeds
 1,015,000-1,016,999 were fresh for that rule's check (commit 1c7655c, run
-once); seeds 1,017,000 and above have never been run.
+once); the nineteenth round's short-lag pass (identifier/modal/short_lags.py)
+was designed on 1,015,000-1,015,599 and 1,013,201, which are tuning seeds
+now; 1,017,000-1,018,999 were fresh for its check (f9534e7, the pass on, run
+once; then the default of 2c4bfcf, the pass off, on the same seeds, run
+once); seeds 1,019,000 and above have never been run.
 """
 from __future__ import annotations
 
