@@ -163,7 +163,6 @@ def test_short_unseen_profile():
     assert any(r["sensors"] == 1 for r in rows)
 
 
-
 def test_fuzz_options_reach_the_method_as_numbers(monkeypatch):
     """``--option max_order=40`` is the whole number 40 (a string crashed every
     record); ``refine=off`` stays a word: record 100,006 (1 sensor) as with the keywords."""
@@ -175,6 +174,7 @@ def test_fuzz_options_reach_the_method_as_numbers(monkeypatch):
     direct = modal.identify([modal_fuzz.unseen_trace(rec)], max_order=40, refine="off")
     assert "error" not in row and row["reported"] == len(direct.omega)
     assert direct.details["max_order"] <= 40
+
 
 def test_one_sensor_and_mixed_quantities():
     """A free decay of two modes read by one velocity sensor, and by three

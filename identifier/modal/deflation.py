@@ -82,6 +82,33 @@ def resolved(omega: float, zeta: float, reported: Identification, length: float)
     return ""
 
 
+def admitted(other: Identification, result: Identification, coherent: float, label: str,
+             near: float = 0.0) -> list[int]:
+    """Indices of ``other``'s modes (a further pass over the record of
+    ``result``) to add: temporal coherence at least ``coherent`` whatever
+    their stable orders, and resolved from every reported mode
+    (:func:`resolved`). Modes within ``near`` (relative) of a reported one
+    are that mode and skipped unlisted; the others and the pass's own
+    rejections join ``result.details["rejected"]``, their reasons prefixed
+    ``label``."""
+    reported = np.array(result.omega)
+    rejected = [dict(r, reason=f"{label}: {r['reason']}") for r in other.details["rejected"]]
+    new = []
+    for j, (w, z) in enumerate(zip(other.omega, other.damping)):
+        if near and np.any(np.abs(reported - w) <= near * w):
+            continue
+        if (c := other.details["coherence"][j]) < coherent:
+            why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
+        else:
+            why = resolved(w, z, result, result.details["record_s"])
+        if why:
+            rejected.append({"omega": w, "zeta": z, "reason": f"{label}: {why}"})
+        else:
+            new.append(j)
+    result.details["rejected"] = sorted(result.details["rejected"] + rejected, key=lambda r: r["omega"])
+    return new
+
+
 def full_shape(records: list[np.ndarray], scale: np.ndarray, weights: np.ndarray, basis: np.ndarray,
                poles: np.ndarray, which: int, lags: int) -> np.ndarray:
     """Complex shape (m,) on the original channels of pole ``poles[which]``
@@ -140,19 +167,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str,
     except IdentificationError as err:
         info["skipped"] = f"the deflated pass refused the projected records: {err}"
         return result
-    length = result.details["record_s"]
-    rejected = [dict(r, reason=f"deflated pass: {r['reason']}") for r in deflated.details["rejected"]]
-    new = []
-    for j, (w, z) in enumerate(zip(deflated.omega, deflated.damping)):
-        if (c := deflated.details["coherence"][j]) < coherent:
-            why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
-        else:
-            why = resolved(w, z, result, length)
-        if why:
-            rejected.append({"omega": w, "zeta": z, "reason": f"deflated pass: {why}"})
-        else:
-            new.append(j)
-    result.details["rejected"] = sorted(result.details["rejected"] + rejected, key=lambda r: r["omega"])
+    new = admitted(deflated, result, coherent, "deflated pass")
     if not new:
         return result
     omega = np.array(result.omega + deflated.omega)

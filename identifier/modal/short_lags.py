@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import IdentificationError
 from ..io.results import Identification
 from ..io.traces import Trace
-from .deflation import merged, resolved
+from .deflation import admitted, merged
 from .sensors import free_response, sensor_records
 
 SHORTER = 4  # the pass's block rows: the first pass's over this
@@ -72,21 +72,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed
     except IdentificationError as err:
         info["skipped"] = f"the short-lag pass refused the records: {err}"
         return result
-    reported = np.array(result.omega)
-    rejected, new = [], []
-    for j, (w, z) in enumerate(zip(second.omega, second.damping)):
-        if np.any(np.abs(reported - w) <= NEAR * w):
-            continue  # a mode the first pass reports (not listed again)
-        if (c := second.details["coherence"][j]) < coherent:
-            why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
-        else:
-            why = resolved(w, z, result, result.details["record_s"])
-        if why:
-            rejected.append({"omega": w, "zeta": z, "reason": f"short-lag pass: {why}"})
-        else:
-            new.append(j)
-    rejected += [dict(r, reason=f"short-lag pass: {r['reason']}") for r in second.details["rejected"]]
-    result.details["rejected"] = sorted(result.details["rejected"] + rejected, key=lambda r: r["omega"])
+    new = admitted(second, result, coherent, "short-lag pass", NEAR)
     if not new:
         return result
     shapes = np.array([second.mode_shapes_complex[j] for j in new]) @ np.array([1.0, 1j])  # (k', m)
