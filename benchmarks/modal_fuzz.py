@@ -21,7 +21,7 @@ modes' frequencies and damping ratios cover the truth.
 
     python benchmarks/modal_fuzz.py [--kind decay|stationary] [--seeds 40] [--first 0] [--option refine=off]
 
-(``--option short_lags=on``: the opt-in short-lag pass, identifier/modal/short_lags.py.)
+(``--option short_lags=off``: without the short-lag pass, identifier/modal/short_lags.py.)
 
 Seeds 0-199 of ``decay`` and ``stationary`` were looked at while the
 noise-pole tests were chosen: their figures are tuning figures (the README

@@ -39,7 +39,7 @@ BUILTIN: dict[str, tuple[str, dict[str, Any], dict[str, tuple[Any, ...]]]] = {
     "modal": (
         "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
         {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-         "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto", "short_lags": "off"},
+         "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto", "short_lags": "on"},
         {"quantity": ("auto", "displacement", "velocity", "acceleration"), "refine": ("auto", "off"),
          "uncertainty": ("jackknife", "off"), "input": ("auto", "off", "on", "poles"), "short_lags": ("off", "on")}),
     "updating": (

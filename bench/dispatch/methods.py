@@ -85,7 +85,7 @@ BUILTIN: dict[str, Method] = {m.name: m for m in (
                     "acceleration (variant velocity) at the same sensors"),
     Method("modal", modal.identify,
            {"quantity": "auto", "block_rows": None, "max_order": 80, "references": 20, "segments": 8,
-            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto", "short_lags": "off"},
+            "min_fraction": 0.3, "refine": "auto", "uncertainty": "jackknife", "input": "auto", "short_lags": "on"},
            "output-only or free-decay modes with damping: SSI-cov, automatic order selection, jackknife errors",
            {"quantity": modal.QUANTITIES, "refine": close_pairs.REFINE, "uncertainty": modal.UNCERTAINTY,
             "input": modal.input_output.INPUTS, "short_lags": modal.SHORT_LAGS},

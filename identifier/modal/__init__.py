@@ -61,10 +61,11 @@ Steps (each its own module):
    found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
    of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
    ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency;
-6. opt-in (``short_lags="on"``), a short-lag pass (stationary records, with the jackknife's replicate test
-   on, block rows not given, :mod:`.short_lags`): steps 0-5 again with a quarter of the block rows; a mode found there that is resolved
-   from every reported one and no nearer than 5 % to any is added (``details["short_lags"]``): long lags, set by
-   a light low mode, leave a broad or high mode's covariance to estimation noise;
+6. a short-lag pass (stationary records, with the jackknife's replicate test on, block rows not given,
+   ``short_lags="on"``, :mod:`.short_lags`): steps 0-5 again with a quarter of the block rows; a mode found
+   there that is resolved from every reported one, no nearer than 5 % to any and with a peak of its own in
+   the spectrum is added (``details["short_lags"]``): long lags, set by a light low mode, leave a broad or
+   high mode's covariance to estimation noise;
 7. spatial deflation (stationary records, with the jackknife's replicate test on, :mod:`.deflation`): the
    RMS-scaled records projected off the spans of the reported modes' complex shapes are identified again
    by steps 0-5; a mode found there that is resolved from every reported one is added
@@ -140,7 +141,7 @@ def _exempt(candidates: list[Mode], coherence: list[float], orders: int) -> list
 def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str = "auto",
              block_rows: int | None = None, max_order: int = 80, references: int = 20, segments: int = 8,
              min_fraction: float = 0.3, drop_unrepeated: bool = True, refine: str = "auto",
-             uncertainty: str = "jackknife", input: str = "auto", short_lags: str = "off") -> Identification:
+             uncertainty: str = "jackknife", input: str = "auto", short_lags: str = "on") -> Identification:
     """Natural frequencies (rad/s), damping ratios, shapes and their standard
     errors from the outputs of one run's traces (``model`` is not needed;
     it only names the structure). ``drop_unrepeated``: report only modes that
@@ -155,9 +156,9 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     the shapes to unit modal mass (:mod:`identifier.modal.input_output`, ``details["input_output"]``). Records in which
     harmonics turn up only through the SSI modes (:func:`identifier.modal.harmonics.confirm`) are
     identified again with them subtracted, so that they take no model order from the modes. A stationary
-    record is identified once more off the reported modes' shapes (:mod:`.deflation`, step 7); ``short_lags``
-    ``on`` (opt-in: it invented modes in a free decay taken for stationary) first once more with a quarter of
-    the block rows (:mod:`.short_lags`, step 6)."""
+    record is identified once more off the reported modes' shapes (:mod:`.deflation`, step 7); before that,
+    with ``short_lags`` ``on`` (``off`` skips it), once more with a quarter of the block rows
+    (:mod:`.short_lags`, step 6)."""
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
                "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}

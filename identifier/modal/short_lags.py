@@ -20,18 +20,23 @@ and adds a mode found there when
   reported one, not listed again: the shorter lags bias a mode both passes
   see by up to a few per cent, and it must not come twice) nor within the
   record's resolution plus both half-power half-widths or the reported
-  mode's 95 % interval (:func:`.deflation.resolved`).
+  mode's 95 % interval (:func:`.deflation.resolved`), and
+- the record's spectrum holds its peak: :func:`.peak_test.peak_lr` at its
+  own damping, every reported and added mode a neighbour, gives a p-value
+  under ``peak_test.ALPHA`` (0.01, with its Bonferroni factor over the
+  record's half-power bands). A record taken for stationary that is not (a
+  free decay whose light low modes hardly decay in it, its higher modes
+  dying out at its start) gives the pass covariance-noise poles whose
+  coherence passes; they have no peak of their own.
 
 Its frequency, damping, shape and their standard errors are the second
 pass's (the same jackknife and bias terms). Skipped (``details["short_lags"]``
 says why) for free responses, when the caller fixed ``block_rows``, when
-``p / 4`` is under ``MIN_ROWS``, or when the pass refuses the records.
+``p / 4`` is under ``MIN_ROWS``, or when the pass refuses the records;
+``short_lags="off"`` (:func:`identifier.modal.identify`) runs no pass.
 Fails (misses the mode) where the first pass's lags were right for it and
-it is weak beside a stronger mode within 5 %. Invents modes in a record
-that is not stationary though taken for it (a free decay whose light low
-modes hardly decay in the record, its higher modes dying out at its start:
-covariance-noise poles of coherence 0.75-0.84 pass every test there), which
-is why it is opt-in (``short_lags="on"``, :func:`identifier.modal.identify`).
+it is weak beside a stronger mode within 5 %, or where its peak is within
+the scatter of a stronger neighbour's skirt.
 """
 from __future__ import annotations
 
@@ -43,6 +48,7 @@ from ..errors import IdentificationError
 from ..io.results import Identification
 from ..io.traces import Trace
 from .deflation import admitted, merged
+from .peak_test import ALPHA, peak_lr
 from .sensors import free_response, sensor_records
 
 SHORTER = 4  # the pass's block rows: the first pass's over this
@@ -57,7 +63,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed
     pass did, ``details["rejected"]`` gains what it saw and rejected.
     ``run(traces, **options)``: the identification to repeat; ``fixed_rows``:
     the caller gave the block rows (then nothing is done)."""
-    records, _, _ = sensor_records(traces, quantity)
+    records, _, dt = sensor_records(traces, quantity)
     if free_response(traces, records)[1] or fixed_rows \
             or not result.details["input_output"]["input"].startswith("off"):
         return result
@@ -72,8 +78,30 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed
     except IdentificationError as err:
         info["skipped"] = f"the short-lag pass refused the records: {err}"
         return result
-    new = admitted(second, result, coherent, "short-lag pass", NEAR)
+    new = peaked(records, dt, result, second, admitted(second, result, coherent, "short-lag pass", NEAR))
     if not new:
         return result
     shapes = np.array([second.mode_shapes_complex[j] for j in new]) @ np.array([1.0, 1j])  # (k', m)
     return merged(result, second, new, shapes.T, "short_lags", [second.mode_shapes_std[j] for j in new])
+
+
+def peaked(records: list[np.ndarray], dt: float, result: Identification, second: Identification,
+           new: list[int]) -> list[int]:
+    """Those of ``second``'s modes ``new`` whose spectral peak passes
+    :func:`.peak_test.peak_lr` at their own damping (p-value under
+    ``peak_test.ALPHA``; every reported and added mode a neighbour) in the
+    mean-removed records (m, n_i) sampled at ``dt`` s; the others join
+    ``result.details["rejected"]``."""
+    if not new:
+        return new
+    k = len(result.omega)
+    omega = np.concatenate([result.omega, [second.omega[j] for j in new]])
+    zeta = np.concatenate([result.damping, [second.damping[j] for j in new]])
+    _, p = peak_lr([y - y.mean(axis=1, keepdims=True) for y in records], dt, omega, zeta,
+                   which=list(range(k, k + len(new))))
+    kept = [j for j, pj in zip(new, p[k:]) if pj < ALPHA]
+    result.details["rejected"] = sorted(result.details["rejected"] + [
+        {"omega": second.omega[j], "zeta": second.damping[j],
+         "reason": f"short-lag pass: no spectral peak of its own (peak test p-value {pj:.2g}, needs under {ALPHA:g})"}
+        for j, pj in zip(new, p[k:]) if pj >= ALPHA], key=lambda r: r["omega"])
+    return kept
