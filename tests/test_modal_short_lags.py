@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from structbench.identifier import modal
-from structbench.identifier.modal import short_lags
+from structbench.identifier.modal import harmonics, short_lags
 
 
 @pytest.mark.parametrize("seed, mode", [(1015094, 1), (1015050, 1)])
@@ -72,3 +72,23 @@ def test_an_added_mode_needs_a_spectral_peak_of_its_own(monkeypatch):
     assert sum(unguarded.details["short_lags"]["added"]) == len(dropped)
     w, se = np.array(unguarded.omega), np.array(unguarded.omega_std)
     assert len(modal_fuzz.match(w, se, rec["omega"])) < w.size  # invented modes
+
+
+def test_the_records_are_screened_for_harmonics_once_per_content(monkeypatch):
+    """The short-lag pass screens the same records as the first pass: one
+    screen serves both (the deflated pass's projected records get their
+    own), and the result is the one with every pass screening afresh."""
+    trace = modal_fuzz.unseen_trace(modal_fuzz.unseen_record(1015094))
+    real, calls = harmonics.screen, []
+    monkeypatch.setattr(harmonics, "screen", lambda records, dt, known=(): calls.append(dt) or real(records, dt, known))
+    once = modal.identify([trace])
+    assert len(calls) == 1 + (once.details["deflation"].get("skipped") is None)
+
+    class Afresh:
+        def __call__(self, records, dt, known=()):
+            return harmonics.screen(records, dt, known)
+    monkeypatch.setattr(harmonics, "Screens", Afresh)
+    shared = len(calls)
+    afresh = modal.identify([trace])
+    assert len(calls) - shared == shared + 1  # the short-lag pass screened again
+    assert afresh.omega == once.omega and afresh.damping == once.damping and afresh.omega_std == once.omega_std

@@ -96,7 +96,7 @@ a quarter period of the lowest frequency carrying 2 % of the power (within
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -161,9 +161,10 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     (:mod:`.short_lags`, step 6)."""
     options = {"model": model, "quantity": quantity, "block_rows": block_rows, "max_order": max_order,
                "references": references, "segments": segments, "min_fraction": min_fraction,
-               "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input}
+               "drop_unrepeated": drop_unrepeated, "refine": refine, "uncertainty": uncertainty, "input": input,
+               "screen": periodic.Screens()}
 
-    def run(these: Sequence[Trace], **changes: str) -> Identification:
+    def run(these: Sequence[Trace], **changes: object) -> Identification:
         result, pending = _identify(these, (), **(options | changes))
         return result if result is not None else _identify(these, tuple(pending), **(options | changes))[0]
     if short_lags not in SHORT_LAGS:
@@ -179,11 +180,15 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
 
 def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: Model | None, quantity: str,
               block_rows: int | None, max_order: int, references: int, segments: int, min_fraction: float,
-              drop_unrepeated: bool, refine: str, uncertainty: str, input: str
+              drop_unrepeated: bool, refine: str, uncertainty: str, input: str, beside: tuple[float, ...] = (),
+              screen: Callable[..., periodic.Screened] = periodic.screen
               ) -> tuple[Identification | None, list[periodic.Line]]:
     """:func:`identify` with the harmonics ``known`` subtracted before SSI. Without ``known``,
     when :func:`identifier.modal.harmonics.confirm` finds harmonics that were not subtracted: no
-    result and those harmonics, for a second pass."""
+    result and those harmonics, for a second pass. ``beside``: the reported frequencies (rad/s) of the
+    pass this one extends; candidates within ``short_lags.NEAR`` of one are those modes, which this pass
+    does not add: they are dropped untested (the extending pass tests what it adds against them).
+    ``screen``: :func:`.harmonics.screen` or the call's :class:`.harmonics.Screens`."""
     input_output.check(input, traces)
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
@@ -201,7 +206,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     decay, free = free_response(traces, records)
     if not free:  # a stationary record's mean (a sensor offset, a static deflection) is no mode: removed
         records = [y - y.mean(axis=1, keepdims=True) for y in records]
-    screened = periodic.Screened(records, [], []) if free else periodic.screen(records, dt, known)  # a free response
+    screened = periodic.Screened(records, [], []) if free else screen(records, dt, known)  # a free response
     # of an undamped structure is a sum of sinusoids: only stationary records are searched for harmonics
     records = screened.records
     f_low = 0.0 if decay else lowest_frequency(records, dt, refs)
@@ -243,6 +248,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
             return ok
 
         modes, flags = select_modes(poles, Criteria.for_record(not free, min_fraction), coherent)
+        modes = [md for md in modes if not np.any(np.abs(np.array(beside) - md.omega) <= lag_pass.NEAR * md.omega)]
         periodic_modes, found = periodic.confirm(
             screened, dt, np.array([md.omega for md in modes]),
             np.array([median(np.abs([by_order[n].zeta[j] for n, j in md.used])) for md in modes]),

@@ -108,6 +108,7 @@ SSI mode (about one such peak in ten), and a mode of under ``STILL`` decay times
 """
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -159,6 +160,24 @@ def screen(records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> 
         cleaned.append(subtract(y, here + again, dt) if here or again else y)
         kept.append(None if here or again else known_here)
     return Screened(cleaned, _merge(sure, tol) + list(known), _merge(doubtful, tol), kept)
+
+
+class Screens:
+    """:func:`screen`, once per records' content, ``dt`` and ``known`` within one identification
+    (its further passes screen the same records again); the records are not changed after it."""
+
+    def __init__(self) -> None:
+        self._done: dict[tuple, Screened] = {}
+
+    def __call__(self, records: list[np.ndarray], dt: float, known: Sequence[Line] = ()) -> Screened:
+        digest = hashlib.blake2b(digest_size=16)
+        for y in records:
+            digest.update(str(y.shape).encode())
+            digest.update(np.ascontiguousarray(y, dtype=float))
+        key = (digest.digest(), dt, tuple(known))  # a Line is hashed by identity
+        if key not in self._done:
+            self._done[key] = screen(records, dt, known)
+        return self._done[key]
 
 
 def unsubtracted(found: list[Line], screened: Screened) -> list[Line]:

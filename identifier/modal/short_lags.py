@@ -18,7 +18,8 @@ and adds a mode found there when
   pass, :mod:`.deflation`), and
 - no reported mode lies within ``NEAR`` (5 %) of it (such a mode is the
   reported one, not listed again: the shorter lags bias a mode both passes
-  see by up to a few per cent, and it must not come twice) nor within the
+  see by up to a few per cent, and it must not come twice; the pass drops
+  those candidates before its own tests, ``beside``) nor within the
   record's resolution plus both half-power half-widths or the reported
   mode's 95 % interval (:func:`.deflation.resolved`), and
 - the record's spectrum holds its peak: :func:`.peak_test.peak_lr` at its
@@ -74,7 +75,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed
         info["skipped"] = f"{rows} block rows (needs {MIN_ROWS})"
         return result
     try:
-        second = run(traces, block_rows=rows)
+        second = run(traces, block_rows=rows, beside=tuple(result.omega))
     except IdentificationError as err:
         info["skipped"] = f"the short-lag pass refused the records: {err}"
         return result
