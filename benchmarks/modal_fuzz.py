@@ -174,7 +174,10 @@ once); the nineteenth round's short-lag pass (identifier/modal/short_lags.py)
 was designed on 1,015,000-1,015,599 and 1,013,201, which are tuning seeds
 now; 1,017,000-1,018,999 were fresh for its check (f9534e7, the pass on, run
 once; then the default of 2c4bfcf, the pass off, on the same seeds, run
-once); seeds 1,019,000 and above have never been run.
+once); 1,019,000-1,020,999 were fresh for the twentieth round's guarded
+pass on by default (78a0871, run once) and 1,021,000-1,022,999 for its
+cheaper form (65a2417, run once); seeds 1,023,000 and above have never
+been run.
 """
 from __future__ import annotations
 
