@@ -19,7 +19,8 @@ and adds a mode found there when
 - no reported mode lies within ``NEAR`` (5 %) of it (such a mode is the
   reported one, not listed again: the shorter lags bias a mode both passes
   see by up to a few per cent, and it must not come twice; the pass drops
-  those candidates before its own tests, ``beside``) nor within the
+  those candidates before its own tests, ``beside``, which thus lack them
+  as neighbours: the peak test below has them) nor within the
   record's resolution plus both half-power half-widths or the reported
   mode's 95 % interval (:func:`.deflation.resolved`), and
 - the record's spectrum holds its peak: :func:`.peak_test.peak_lr` at its
