@@ -118,9 +118,9 @@ from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_o
 from . import short_lags as lag_pass
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
-from ..io.traces import Channel, Trace
+from ..io.traces import Trace
 from . import sensors
-from .sensors import free_response, sensor_records
+from .sensors import channels_quantity, free_response, sensor_records
 
 QUANTITIES = sensors.QUANTITIES  # the values of the quantity option
 UNCERTAINTY = ("jackknife", "off")
@@ -173,9 +173,13 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     found = run(traces)
     if not (uncertainty == "jackknife" and drop_unrepeated):  # the further passes only with the replicate test on
         return found
+    records, _, dt = sensor_records(traces, quantity)
+    if free_response(traces, records)[1]:  # the further passes are for stationary records, mean removed
+        return found
+    records = [y - y.mean(axis=1, keepdims=True) for y in records]
     if short_lags == "on":
-        found = lag_pass.extend(traces, found, quantity, block_rows is not None, run, COHERENCE)
-    return deflation.extend(traces, found, quantity, run, COHERENCE)
+        found = lag_pass.extend(traces, records, dt, found, block_rows is not None, run, COHERENCE)
+    return deflation.extend(traces, records, dt, found, run, COHERENCE)
 
 
 def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: Model | None, quantity: str,
@@ -185,9 +189,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
               ) -> tuple[Identification | None, list[periodic.Line]]:
     """:func:`identify` with the harmonics ``known`` subtracted before SSI. Without ``known``,
     when :func:`identifier.modal.harmonics.confirm` finds harmonics that were not subtracted: no
-    result and those harmonics, for a second pass. ``beside``: the reported frequencies (rad/s) of the
-    pass this one extends; candidates within ``short_lags.NEAR`` of one are those modes, which this pass
-    does not add: they are dropped untested (the extending pass tests what it adds against them).
+    result and those harmonics, for a second pass. ``beside``: the reported frequencies (rad/s) of the pass
+    this one extends; candidates within ``short_lags.NEAR`` of one are dropped untested (never added).
     ``screen``: :func:`.harmonics.screen` or the call's :class:`.harmonics.Screens`."""
     input_output.check(input, traces)
     if uncertainty not in UNCERTAINTY:
@@ -317,7 +320,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
         damping=zeta.tolist(), omega_std=omega_se.tolist(), damping_std=zeta_se.tolist(),
         mpc=mpc(shapes).tolist(),
         mode_shapes_complex=[[[float(v.real), float(v.imag)] for v in col] for col in shapes.T],
-        details={"algorithm": "ssi-cov", "quantity": _quantity(channels), "block_rows": p, "block_columns": q,
+        details={"algorithm": "ssi-cov", "quantity": channels_quantity(channels), "block_rows": p, "block_columns": q,
                  "references": r, "segments": segments, "max_order": order_cap, "uncertainty": uncertainty,
                  "orders": [md.order if md else None for md in modes],
                  "support": [md.support if md else None for md in modes],
@@ -336,12 +339,6 @@ def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray,
               for md in modes]
     spread = np.array([v.std(axis=0) for v in values]).reshape(-1, 2)
     return spread[:, 0], spread[:, 1]
-
-
-def _quantity(channels: list[Channel]) -> str:
-    """The channels' quantity, or ``mixed`` (each sensor's shape entry is then in its own quantity)."""
-    kinds = {c.quantity for c in channels}
-    return kinds.pop() if len(kinds) == 1 else "mixed"
 
 
 def _warnings(decay: bool, f_low: float, length: float) -> list[str]:

@@ -39,7 +39,7 @@ from ..errors import IdentificationError
 from ..io.results import Identification
 from ..io.traces import Channel, Trace
 from .refine import complex_poles
-from .sensors import free_response, sensor_records
+from .sensors import free_response
 from .ssi.poles import mpc, real_shapes
 
 LEFT = 2  # least pseudo-channels left after the projection
@@ -82,21 +82,15 @@ def resolved(omega: float, zeta: float, reported: Identification, length: float)
     return ""
 
 
-def admitted(other: Identification, result: Identification, coherent: float, label: str,
-             near: float = 0.0) -> list[int]:
+def admitted(other: Identification, result: Identification, coherent: float, label: str) -> list[int]:
     """Indices of ``other``'s modes (a further pass over the record of
     ``result``) to add: temporal coherence at least ``coherent`` whatever
     their stable orders, and resolved from every reported mode
-    (:func:`resolved`). Modes within ``near`` (relative) of a reported one
-    are that mode and skipped unlisted; the others and the pass's own
-    rejections join ``result.details["rejected"]``, their reasons prefixed
-    ``label``."""
-    reported = np.array(result.omega)
+    (:func:`resolved`); the others and the pass's own rejections join
+    ``result.details["rejected"]``, their reasons prefixed ``label``."""
     rejected = [dict(r, reason=f"{label}: {r['reason']}") for r in other.details["rejected"]]
     new = []
     for j, (w, z) in enumerate(zip(other.omega, other.damping)):
-        if near and np.any(np.abs(reported - w) <= near * w):
-            continue
         if (c := other.details["coherence"][j]) < coherent:
             why = f"temporal coherence {c:.2f} (an added mode needs {coherent:g} whatever its stable orders)"
         else:
@@ -134,21 +128,19 @@ def full_shape(records: list[np.ndarray], scale: np.ndarray, weights: np.ndarray
     return shape / np.abs(shape).max(initial=0.0) if np.abs(shape).max(initial=0.0) > 0 else shape
 
 
-def extend(traces: Sequence[Trace], result: Identification, quantity: str,
+def extend(traces: Sequence[Trace], records: list[np.ndarray], dt: float, result: Identification,
            run: Callable[..., Identification], coherent: float) -> Identification:
-    """``result`` of a stationary record with the modes found in its spatially
+    """``result`` of the stationary ``traces`` (their mean-removed sensor
+    records (m, n_i) sampled at ``dt`` s) with the modes found in its spatially
     deflated records added (see the module docstring); ``details["deflation"]``
     says what the pass did, ``details["rejected"]`` gains what it saw and
     rejected. ``run(traces, **options)``: the identification to repeat on the
     pseudo-traces. ``coherent``: the least temporal coherence of an added
     mode, with no exemption for modes stable at most orders (one such pole,
-    coherence 0.53, was tuning seed 1,003,514's only invented mode). Free
-    responses, and results scaled by a measured input, are returned as they are."""
-    records, _, dt = sensor_records(traces, quantity)
-    if free_response(traces, records)[1] or not result.omega \
-            or not result.details["input_output"]["input"].startswith("off"):
+    coherence 0.53, was tuning seed 1,003,514's only invented mode). Results
+    without modes or scaled by a measured input are returned as they are."""
+    if not result.omega or not result.details["input_output"]["input"].startswith("off"):
         return result
-    records = [y - y.mean(axis=1, keepdims=True) for y in records]
     scale = np.sqrt(sum(np.sum(y**2, axis=1) for y in records) / sum(y.shape[1] for y in records))
     scale = np.where(scale > 0, scale, 1.0)
     shapes = np.array(result.mode_shapes_complex) @ np.array([1.0, 1j])  # (k, m)

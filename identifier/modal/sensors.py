@@ -64,3 +64,9 @@ def free_response(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> tup
     that is not free is stationary."""
     decay = all(is_free_decay(y) for y in records)
     return decay, decay or all(str(t.excitation_attrs.get("kind", "")) in FREE_KINDS for t in traces)
+
+
+def channels_quantity(channels: Sequence[Channel]) -> str:
+    """The channels' quantity, or ``mixed`` (each sensor's shape entry is then in its own quantity)."""
+    kinds = {c.quantity for c in channels}
+    return kinds.pop() if len(kinds) == 1 else "mixed"

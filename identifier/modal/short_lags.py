@@ -51,23 +51,21 @@ from ..io.results import Identification
 from ..io.traces import Trace
 from .deflation import admitted, merged
 from .peak_test import ALPHA, peak_lr
-from .sensors import free_response, sensor_records
 
 SHORTER = 4  # the pass's block rows: the first pass's over this
 MIN_ROWS = 8  # least block rows of the pass
 NEAR = 0.05  # no reported mode within this relative distance of an added one
 
 
-def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed_rows: bool,
-           run: Callable[..., Identification], coherent: float) -> Identification:
-    """``result`` of a stationary record with the modes its short-lag pass
+def extend(traces: Sequence[Trace], records: list[np.ndarray], dt: float, result: Identification,
+           fixed_rows: bool, run: Callable[..., Identification], coherent: float) -> Identification:
+    """``result`` of the stationary ``traces`` (their mean-removed sensor
+    records (m, n_i) sampled at ``dt`` s) with the modes its short-lag pass
     finds added (module docstring); ``details["short_lags"]`` says what the
     pass did, ``details["rejected"]`` gains what it saw and rejected.
     ``run(traces, **options)``: the identification to repeat; ``fixed_rows``:
     the caller gave the block rows (then nothing is done)."""
-    records, _, dt = sensor_records(traces, quantity)
-    if free_response(traces, records)[1] or fixed_rows \
-            or not result.details["input_output"]["input"].startswith("off"):
+    if fixed_rows or not result.details["input_output"]["input"].startswith("off"):
         return result
     rows = int(result.details["block_rows"]) // SHORTER
     info: dict = {"block_rows": rows, "added": [False] * len(result.omega)}
@@ -80,7 +78,7 @@ def extend(traces: Sequence[Trace], result: Identification, quantity: str, fixed
     except IdentificationError as err:
         info["skipped"] = f"the short-lag pass refused the records: {err}"
         return result
-    new = peaked(records, dt, result, second, admitted(second, result, coherent, "short-lag pass", NEAR))
+    new = peaked(records, dt, result, second, admitted(second, result, coherent, "short-lag pass"))
     if not new:
         return result
     shapes = np.array([second.mode_shapes_complex[j] for j in new]) @ np.array([1.0, 1j])  # (k', m)
@@ -92,15 +90,14 @@ def peaked(records: list[np.ndarray], dt: float, result: Identification, second:
     """Those of ``second``'s modes ``new`` whose spectral peak passes
     :func:`.peak_test.peak_lr` at their own damping (p-value under
     ``peak_test.ALPHA``; every reported and added mode a neighbour) in the
-    mean-removed records (m, n_i) sampled at ``dt`` s; the others join
+    records (m, n_i) sampled at ``dt`` s; the others join
     ``result.details["rejected"]``."""
     if not new:
         return new
     k = len(result.omega)
     omega = np.concatenate([result.omega, [second.omega[j] for j in new]])
     zeta = np.concatenate([result.damping, [second.damping[j] for j in new]])
-    _, p = peak_lr([y - y.mean(axis=1, keepdims=True) for y in records], dt, omega, zeta,
-                   which=list(range(k, k + len(new))))
+    _, p = peak_lr(records, dt, omega, zeta, which=list(range(k, k + len(new))))
     kept = [j for j, pj in zip(new, p[k:]) if pj < ALPHA]
     result.details["rejected"] = sorted(result.details["rejected"] + [
         {"omega": second.omega[j], "zeta": second.damping[j],
