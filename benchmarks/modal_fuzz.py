@@ -192,23 +192,13 @@ from scipy.signal import lfilter
 sys.path.insert(0, str(Path(__file__).parent))
 from modal_synth import _mode_filter, forced, free_decays  # noqa: E402
 
+from structbench.cli.identify import generic  # noqa: E402  (--option KEY=VALUE as the CLI reads it)
 from structbench.identifier import modal  # noqa: E402
 from structbench.identifier.errors import IdentificationError  # noqa: E402
 from structbench.identifier.io.traces import Channel, Trace  # noqa: E402
 
 NOISE = 0.02
 OPTIONS: dict[str, str | int | float] = {}  # modal.identify's options (--option KEY=VALUE), e.g. refine=off
-
-
-def _option(item: str) -> tuple[str, str | int | float]:
-    """``KEY=VALUE`` as modal.identify takes it: a whole number or a number as such (``max_order=120``)."""
-    key, value = item.split("=", 1)
-    for kind in (int, float):
-        try:
-            return key, kind(value)
-        except ValueError:
-            pass
-    return key, value
 
 
 def trace(y: np.ndarray, dt: float) -> Trace:
@@ -468,7 +458,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="an option of the modal method, e.g. refine=off")
     args = parser.parse_args(argv)
-    OPTIONS.update(_option(item) for item in args.option)
+    OPTIONS.update(generic(args.option))
     rows = []
     for seed in range(args.first, args.first + args.seeds):
         row = unseen(seed) if args.kind == "unseen" else run(args.kind, seed)

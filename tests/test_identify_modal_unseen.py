@@ -167,7 +167,7 @@ def test_fuzz_options_reach_the_method_as_numbers(monkeypatch):
     """``--option max_order=40`` is the whole number 40 (a string crashed every
     record); ``refine=off`` stays a word: record 100,006 (1 sensor) as with the keywords."""
     monkeypatch.setattr(modal_fuzz, "OPTIONS", {})
-    modal_fuzz.OPTIONS.update(modal_fuzz._option(o) for o in ("max_order=40", "refine=off"))
+    modal_fuzz.OPTIONS.update(modal_fuzz.generic(["max_order=40", "refine=off"]))
     assert modal_fuzz.OPTIONS == {"max_order": 40, "refine": "off"}
     row = modal_fuzz.unseen(100006)
     rec = modal_fuzz.unseen_record(100006)
