@@ -58,7 +58,9 @@ Steps (each its own module):
    replicates but one; finite standard errors; not a duplicate the record does not resolve; in a free
    response, above the sensor noise by a matched-filter test, :mod:`identifier.modal.decay_snr`; in a free
    decay, needed beside its neighbours, :mod:`identifier.modal.decay_pairs`; then the modes SSI missed,
-   found in a free decay's residual, :mod:`identifier.modal.decay_search`). The others, and the candidates
+   found in a free decay's residual, :mod:`identifier.modal.decay_search`; in a stationary record, not a mode
+   kept by the coherence exemption that step 4's widened errors leave unresolved from a more coherent one,
+   :func:`identifier.modal.band_fit.checked`). The others, and the candidates
    of step 3 below ``COHERENCE``, are listed in ``details["rejected"]`` with their reason;
    ``details["warnings"]`` says when a stationary record is under two periods of its lowest frequency;
 6. a short-lag pass (stationary records, with the jackknife's replicate test on, block rows not given,
@@ -300,9 +302,10 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     ml, pairs = decay_pairs.screen(traces, records, dt, ml, dropped, refine) if decay else (ml, [])
     ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine) if decay else (ml, [])
     rejected += gone + pairs + more  # the pair test: one pole for a broad mode's two; then missed modes
+    ml, banded, widened = band_fit.checked(records, dt, ml, [fits[i] if i >= 0 else None for i in ml.source],
+                                           length, not (free or ml.details["applied"]), COHERENCE)
+    rejected += widened  # stationary: vs bands; an exempt widened mode no longer resolved from a coherent one
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
-    omega_se, zeta_se, banded = band_fit.widen(records, dt, omega, zeta, omega_se, zeta_se) \
-        if not (free or ml.details["applied"]) else (omega_se, zeta_se, [""] * omega.size)  # stationary: vs bands
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
     shape_se = np.column_stack([shape_se, np.full(len(shape_se), np.nan)])[:, ml.source]  # mode, shape by LS
     refined, source = np.append(refined, False)[ml.source], np.append(source, -1)[ml.source]

@@ -51,6 +51,7 @@ apart (``LR`` under the level: a short record's flat likelihood).
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -58,7 +59,8 @@ from scipy.optimize import minimize
 from scipy.stats import chi2 as chi_square
 
 from . import peak_test
-from .refine import MOVE
+from .refine import MOVE, PoleRefinement
+from .support import less_coherent_after
 
 GRID = 21  # frequencies of the band fit's starting grid
 STEP = 0.05  # finite-difference steps of the band fit's curvature, x its half-width (omega) and x its zeta
@@ -143,3 +145,25 @@ def widen(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndar
                           f"in chi2_2 against both fits' errors; likelihood ratio {lr:.3g}, over {level:.3g})")
             omega_std[c], zeta_std[c] = np.hypot(omega_std[c], dw), np.hypot(zeta_std[c], dz)
     return omega_std, zeta_std, reasons
+
+
+def checked(records: list[np.ndarray], dt: float, modes: PoleRefinement, coherence: list[float | None],
+            length: float, stationary: bool, exempt_below: float) -> tuple[PoleRefinement, list[str], list[dict]]:
+    """The reported ``modes`` of records (m, n_i) sampled at ``dt`` s, of
+    total ``length`` s, their errors widened by :func:`widen` (stationary
+    records only; otherwise as they are); a mode of temporal coherence
+    (``coherence`` (k,), None: unknown) under ``exempt_below`` that the
+    widened errors leave unresolved from a more coherent reported one is
+    dropped (:func:`identifier.modal.support.less_coherent_after`). Returns the
+    modes kept, :func:`widen`'s reasons for them and the dropped ones as
+    ``details.rejected`` entries."""
+    if not stationary:
+        return modes, [""] * modes.omega.size, []
+    omega_std, zeta_std, reasons = widen(records, dt, modes.omega, modes.zeta, modes.omega_std, modes.zeta_std)
+    modes = replace(modes, omega_std=omega_std, zeta_std=zeta_std)
+    if not any(reasons):
+        return modes, reasons, []
+    keep, dropped = less_coherent_after(modes.omega, modes.zeta, omega_std,
+                                        np.array([np.nan if c is None else c for c in coherence]), length,
+                                        exempt_below)
+    return modes.subset(keep), [r for r, k in zip(reasons, keep) if k], dropped

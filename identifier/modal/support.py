@@ -102,7 +102,11 @@ round). Of two candidates the record does not resolve (as for duplicates
 below), one under ``COHERENT``, the less coherent is dropped as a
 duplicate whatever its shape: noise poles stable at most orders beside a
 mode (kept by the stabilisation's ``STEADY`` rule at any coherence) share
-its peak.
+its peak. The band fit may widen a reported mode's errors after these tests
+(:mod:`identifier.modal.band_fit`); a mode kept by that exemption alone
+that the widened errors leave unresolved from a more coherent reported one
+is then dropped as its duplicate (:func:`less_coherent_after`): its own
+band has moved it onto the other.
 
 A mode stable at under ``MIN_STABLE`` of the model orders
 (:mod:`identifier.modal.stabilisation` asks ``min_fraction`` of every
@@ -278,9 +282,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
             alike |= same_shape(shapes, shape_std)
         se = np.where(np.isfinite(omega_std), omega_std, 0.0)
         sz = np.where(np.isfinite(zeta_std), zeta_std, 0.0)
-        resolve = np.maximum.reduce([3 * np.hypot(se[:, None], se[None, :]), np.full((k, k), 2 * np.pi / length),
-                                     0.5 * (np.abs(zeta) * omega)[:, None] + 0.5 * (np.abs(zeta) * omega)[None, :]])
-        unresolved = np.abs(omega[:, None] - omega[None, :]) < resolve
+        unresolved = unresolved_pairs(omega, zeta, omega_std, length)
         if coherence is not None and not decay:
             _less_coherent(omega, np.asarray(coherence, float), unresolved, keep, reasons)
         for i in np.argsort(-np.asarray(support), kind="stable"):  # the best supported first
@@ -295,6 +297,42 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
                     keep[j] = False
                     reasons[j] = f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record)"
     return Verdict(keep, reasons)
+
+
+def unresolved_pairs(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, length: float) -> np.ndarray:
+    """(k, k) bool: the pairs of modes at ``omega`` (k,) rad/s, damping
+    ``zeta`` (k,), standard errors ``omega_std`` (k,) (NaN: 0) that records
+    of ``length`` s do not resolve (module docstring, duplicates)."""
+    se = np.where(np.isfinite(omega_std), omega_std, 0.0)
+    width = np.abs(zeta) * omega
+    resolve = np.maximum.reduce([3 * np.hypot(se[:, None], se[None, :]), np.full((omega.size,) * 2, 2 * np.pi / length),
+                                 0.5 * width[:, None] + 0.5 * width[None, :]])
+    return np.abs(omega[:, None] - omega[None, :]) < resolve
+
+
+def less_coherent_after(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, coherence: np.ndarray,
+                        length: float, below: float) -> tuple[np.ndarray, list[dict]]:
+    """Reported modes (k,) at ``omega`` rad/s, damping ``zeta``, whose
+    ``omega_std`` grew after :func:`judge` (the band fit's widening,
+    :mod:`identifier.modal.band_fit`): a mode of temporal coherence
+    (``coherence`` (k,), NaN: unknown) under ``below``, reported only for
+    being stable at most model orders, that records of ``length`` s no
+    longer resolve from a more coherent one at its final errors
+    (:func:`unresolved_pairs`) is that mode seen again (its own band has
+    moved it there) and is dropped. Returns the modes kept (k,) bool and
+    the dropped ones as ``details.rejected`` entries."""
+    keep, reasons = np.ones(omega.size, dtype=bool), [""] * omega.size
+    coherence = np.asarray(coherence, float)
+    unresolved = unresolved_pairs(omega, zeta, omega_std, length)
+    for j in np.argsort(-coherence, kind="stable"):
+        better = np.flatnonzero(keep & unresolved[j] & (coherence > coherence[j]))
+        if coherence[j] < below and better.size:
+            i = better[np.argmax(coherence[better])]
+            keep[j] = False
+            reasons[j] = (f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record at its "
+                          f"errors widened by its band; temporal coherence {coherence[j]:.2f}, under {below:g} "
+                          f"and its {coherence[i]:.2f})")
+    return keep, rejected(omega, zeta, Verdict(keep, reasons))
 
 
 def _weak(zeta: np.ndarray, zeta_std: np.ndarray, coherence: np.ndarray | None) -> tuple[np.ndarray, list[str]]:
