@@ -176,8 +176,11 @@ now; 1,017,000-1,018,999 were fresh for its check (f9534e7, the pass on, run
 once; then the default of 2c4bfcf, the pass off, on the same seeds, run
 once); 1,019,000-1,020,999 were fresh for the twentieth round's guarded
 pass on by default (78a0871, run once) and 1,021,000-1,022,999 for its
-cheaper form (65a2417, run once); seeds 1,023,000 and above have never
-been run.
+cheaper form (65a2417, run once); the twenty-first round's check at the
+band fit's widened errors was designed on 1,022,207 and measured on
+1,015,000-1,015,599, and 1,023,000-1,024,999 were fresh for it (664c7f6,
+run once; then f3a4904, the code before, on the same seeds, run once);
+seeds 1,025,000 and above have never been run.
 """
 from __future__ import annotations
 
