@@ -302,8 +302,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     ml, pairs = decay_pairs.screen(traces, records, dt, ml, dropped, refine) if decay else (ml, [])
     ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine) if decay else (ml, [])
     rejected += gone + pairs + more  # the pair test: one pole for a broad mode's two; then missed modes
-    ml, banded, widened = band_fit.checked(records, dt, ml, [fits[i] if i >= 0 else None for i in ml.source],
-                                           length, not (free or ml.details["applied"]), COHERENCE)
+    ml, banded, widened = band_fit.checked(records, dt, ml, [fits[i] if i >= 0 else None for i in np.append(
+        source, -1)[ml.source]], length, not (free or ml.details["applied"]), COHERENCE)  # fits: per candidate
     rejected += widened  # stationary: vs bands; an exempt widened mode no longer resolved from a coherent one
     omega, zeta, omega_se, zeta_se = ml.omega, ml.zeta, ml.omega_std, ml.zeta_std
     shapes = np.column_stack([shapes, np.zeros(len(shapes))])[:, ml.source]  # -1: a split merger's second
