@@ -322,16 +322,8 @@ def less_coherent_after(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarr
     moved it there) and is dropped. Returns the modes kept (k,) bool and
     the dropped ones as ``details.rejected`` entries."""
     keep, reasons = np.ones(omega.size, dtype=bool), [""] * omega.size
-    coherence = np.asarray(coherence, float)
-    unresolved = unresolved_pairs(omega, zeta, omega_std, length)
-    for j in np.argsort(-coherence, kind="stable"):
-        better = np.flatnonzero(keep & unresolved[j] & (coherence > coherence[j]))
-        if coherence[j] < below and better.size:
-            i = better[np.argmax(coherence[better])]
-            keep[j] = False
-            reasons[j] = (f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record at its "
-                          f"errors widened by its band; temporal coherence {coherence[j]:.2f}, under {below:g} "
-                          f"and its {coherence[i]:.2f})")
+    _less_coherent(omega, np.asarray(coherence, float), unresolved_pairs(omega, zeta, omega_std, length), keep,
+                   reasons, below, " at its errors widened by its band")
     return keep, rejected(omega, zeta, Verdict(keep, reasons))
 
 
@@ -350,16 +342,17 @@ def _weak(zeta: np.ndarray, zeta_std: np.ndarray, coherence: np.ndarray | None) 
 
 
 def _less_coherent(omega: np.ndarray, coherence: np.ndarray, unresolved: np.ndarray, keep: np.ndarray,
-                   reasons: list[str]) -> None:
+                   reasons: list[str], below: float = COHERENT, at: str = "") -> None:
     """Of two kept candidates the record does not resolve (``unresolved``
-    (k, k)), one of temporal coherence under ``COHERENT``, the less
-    coherent is dropped (module docstring), most coherent kept first."""
+    (k, k)), one of temporal coherence under ``below``, the less coherent
+    is dropped (module docstring), most coherent kept first; ``at`` says
+    at which errors in its reason."""
     for i in np.argsort(-coherence, kind="stable"):
         for j in np.flatnonzero(keep & unresolved[i]):
-            if keep[i] and j != i and coherence[j] < min(coherence[i], COHERENT):
+            if keep[i] and j != i and coherence[j] < min(coherence[i], below):
                 keep[j] = False
-                reasons[j] = (f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record; "
-                              f"temporal coherence {coherence[j]:.2f}, under {COHERENT:g} and its {coherence[i]:.2f})")
+                reasons[j] = (f"duplicate of the mode at {omega[i]:.6g} rad/s (not resolved by the record{at}; "
+                              f"temporal coherence {coherence[j]:.2f}, under {below:g} and its {coherence[i]:.2f})")
 
 
 def rejected(omega: np.ndarray, zeta: np.ndarray, verdict: Verdict) -> list[dict]:
