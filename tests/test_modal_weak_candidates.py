@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 from test_modal_peak_pairs import DT, N, SHAPE, _mode
 
-from structbench.identifier.modal.peak_pairs import projected_periodogram, unit_scaled
-from structbench.identifier.modal.peak_test import peak_lr
+from structbench.identifier.modal.peak_pairs import unit_scaled
+from structbench.identifier.modal.peak_test import peak_lr, projected_periodogram
 from structbench.identifier.modal.support import judge
 
 OTHER = np.array([0.3, 0.9, -0.5, 0.2])  # a second shape (MAC 0.01 with SHAPE)

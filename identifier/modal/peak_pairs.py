@@ -94,9 +94,13 @@ Weak candidates (last, :func:`_faint`; :mod:`identifier.modal.support`
 names them: damping within 1.96 standard errors of zero, or temporal
 coherence under ``support.COHERENT``; ``zeta_top = |zeta| + 1.96 zeta_std``,
 the upper end of the damping interval) need a
-peak of their own in the summed periodogram or in the channels projected
+peak of their own in the summed periodogram, in the channels projected
 on their own unit shape (``|u_c^H Y_k|^2``, which shows a weak mode the
-summed periodogram hides under other shapes' response), each by
+summed periodogram hides under other shapes' response) or in one
+channel's periodogram in both halves of the record at ``m`` times the
+larger p-value (a mode that one low-noise sensor sees, which the other
+channels' noise buries in the sum and, weighted by its shape, in the
+projection; :func:`identifier.modal.peak_test.in_one_channel`), each by
 :func:`identifier.modal.peak_test.peak_lr` at SSI's damping and at
 ``zeta_top`` (whose band, ``10 zeta_top omega`` wide, holds the peak of a
 true mode whose damping SSI underestimates, which the band at SSI's
@@ -275,13 +279,14 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
            top: np.ndarray, scaled: np.ndarray, reasons: list[str], faint: list[int], dropped: list[int],
            why: list[str]) -> None:
     """The weak-candidate test (module docstring): each candidate of
-    ``faint`` needs a peak of its own in the summed periodogram or in the
-    channels projected on its own shape (``summed``: the records' summed
+    ``faint`` needs a peak of its own in the summed periodogram, in the
+    channels projected on its own shape or in one channel's periodogram in
+    both halves of the records (:func:`identifier.modal.peak_test.in_one_channel`; ``summed``: the records' summed
     periodogram, :func:`identifier.modal.peak_test.summed_periodogram`;
     ``scaled`` (m, k), unit-RMS channels), tested at SSI's damping ``zeta`` and at ``top`` (k,), the
     upper end of its damping interval (p-value the smaller of the two
-    times 2; the neighbours resolved at ``zeta``), the projected chance
-    only for a shape ``APART`` from the other-shaped candidates in its
+    times 2; the neighbours resolved at ``zeta``), the projected and the
+    channels' chances only for a shape ``APART`` from the other-shaped candidates in its
     band; ``dropped`` candidates not among its neighbours; ``why`` (k,)
     the reason each needs a peak. Level ``TOP_ALPHA`` for a candidate above
     every other open one, ``peak_test.ALPHA`` elsewhere."""
@@ -294,8 +299,8 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
         level = TOP_ALPHA if omega[i] > max((omega[j] for j in open_ if j != i), default=0.0) else peak_test.ALPHA
         high = np.where(np.arange(omega.size) == i, top, zeta)
 
-        def test(spectrum: np.ndarray) -> tuple[float, float]:
-            found = [peak_test.peak_lr(records, dt, omega, zeta, [i], excluded={i: dropped}, summed=spectrum,
+        def test(spectrum: np.ndarray, part: list[np.ndarray] = records) -> tuple[float, float]:
+            found = [peak_test.peak_lr(part, dt, omega, zeta, [i], excluded={i: dropped}, summed=spectrum,
                                        wide=z) for z in (zeta, high)]
             return max(stat[i] for stat, _ in found), min(1.0, 2.0 * min(p[i] for _, p in found))
 
@@ -312,11 +317,16 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
                           f"{top[i]:.3g} (likelihood ratio {stat:.3g}, p-value {pvalue:.2g}; needs under "
                           f"{level:g}) and a shape {apart:.2f} apart from its neighbours' (under {APART:g})")
             continue
-        own, p_own = test(projected_periodogram(records, u))
-        if p_own >= level:
+        own, p_own = test(peak_test.projected_periodogram(records, u))
+        if p_own < level:
+            continue
+        p_one = float(peak_test.in_one_channel(records, lambda part, row: np.array([test(row, part)[1]]))[0]) \
+            if len(scaled) > 1 else 1.0
+        if p_one >= level:
             reasons[i] = (f"{why[i]} and no spectral peak of its own at zeta {abs(zeta[i]):.3g} "
                           f"or {top[i]:.3g} (likelihood ratio {stat:.3g} summed, {own:.3g} in its shape; "
-                          f"p-values {pvalue:.2g}, {p_own:.2g}; needs under {level:g})")
+                          f"p-values {pvalue:.2g}, {p_own:.2g}, {p_one:.2g} in one of its {len(scaled)} "
+                          f"channels; needs under {level:g})")
 
 
 def shadows(omega: np.ndarray, zeta: np.ndarray, support: np.ndarray, scaled: np.ndarray, T: float,
@@ -351,20 +361,6 @@ def unit_scaled(records: list[np.ndarray], shapes: np.ndarray) -> np.ndarray:
     return shapes / np.where(rms > 0, rms, 1.0)[:, None]
 
 
-def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.ndarray:
-    """``|w^H Y_k|^2`` (n // 2 + 1,) summed over the records (m, n_i) cut to
-    the shortest: ``Y_k`` (m,) the transforms of the channels scaled to unit
-    RMS (as :func:`identifier.modal.peak_test.summed_periodogram`), ``w``
-    = ``weights`` (m,) complex, in the scaled channels."""
-    n = min(y.shape[1] for y in records)
-    total = np.zeros(n // 2 + 1)
-    for y in records:
-        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
-        rms = y.std(axis=1)
-        total += np.abs(weights.conj() @ peak_test.rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)) ** 2
-    return total
-
-
 def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray,
            support: np.ndarray, scaled: np.ndarray, reasons: list[str], open_: list[int], dropped: set[int]) -> None:
     """The projected test (module docstring): each candidate of ``open_``
@@ -392,7 +388,7 @@ def _apart(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.nda
         if np.linalg.norm(w) < APART:
             continue
         stat, pvalue = peak_test.peak_lr(records, dt, omega, zeta, [c], excluded={c: sorted(dropped)},
-                                         summed=projected_periodogram(records, w / np.linalg.norm(w)))
+                                         summed=peak_test.projected_periodogram(records, w / np.linalg.norm(w)))
         if pvalue[c] >= peak_test.ALPHA:
             reasons[c] = (f"no spectral peak of its own in its shape apart from the mode at "
                           f"{omega[near[0]]:.6g} rad/s (likelihood ratio {stat[c]:.3g}, p-value "

@@ -50,6 +50,8 @@ applies it to shadows, pairs and candidates projected apart only.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+
 import numpy as np
 from scipy.optimize import nnls
 from scipy.stats import chi2 as chi_square
@@ -124,17 +126,35 @@ def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None =
     return best, best_a / scale
 
 
+def _scaled_transforms(records: list[np.ndarray]) -> Iterator[np.ndarray]:
+    """Per record (m, n_i), the real FFT (m, n // 2 + 1) of its channels cut
+    to the shortest record's ``n`` samples, mean removed, scaled to unit RMS."""
+    n = min(y.shape[1] for y in records)
+    for y in records:
+        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
+        rms = y.std(axis=1)
+        yield rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)
+
+
+def channel_periodograms(records: list[np.ndarray]) -> np.ndarray:
+    """Each channel's periodogram (m, n // 2 + 1): records (m, n_i) cut to
+    the shortest, channels scaled to unit RMS, added over the records."""
+    return sum(np.abs(Y) ** 2 for Y in _scaled_transforms(records))
+
+
 def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
     """``P_k`` (n // 2 + 1,) of the module docstring: records (m, n_i) cut to
     the shortest, channels scaled to unit RMS, their periodograms summed
     over channels and records."""
-    n = min(y.shape[1] for y in records)
-    total = np.zeros(n // 2 + 1)
-    for y in records:
-        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
-        rms = y.std(axis=1)
-        total += np.sum(np.abs(rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)) ** 2, axis=0)
-    return total
+    return channel_periodograms(records).sum(axis=0)
+
+
+def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.ndarray:
+    """``|w^H Y_k|^2`` (n // 2 + 1,) summed over the records (m, n_i) cut to
+    the shortest: ``Y_k`` (m,) the transforms of the channels scaled to unit
+    RMS (as :func:`summed_periodogram`), ``w`` = ``weights`` (m,) complex,
+    in the scaled channels."""
+    return sum(np.abs(weights.conj() @ Y) ** 2 for Y in _scaled_transforms(records))
 
 
 def spectrum(records: list[np.ndarray], dt: float, summed: np.ndarray | None = None
@@ -224,3 +244,38 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
         stat[c] = 2.0 * (best - base)
         pvalue[c] = min(1.0, 0.5 * chi_square.sf(stat[c], 1) * len(ZETA_STEPS) * places(n, z, omega[c], T))
     return stat, pvalue
+
+
+def in_one_channel(records: list[np.ndarray], pvalue: Callable[[list[np.ndarray], np.ndarray], np.ndarray]
+                   ) -> np.ndarray:
+    """The chance that one channel shows a peak: ``min(1, m min_i max(p_i',
+    p_i''))`` (k,) over the m channels of the records (m, n_i) cut to the
+    shortest, ``p_i'`` and ``p_i''`` the p-values (k,) that ``pvalue(part,
+    periodogram)`` gives channel i's periodogram in the first and the second
+    half of them. One channel's periodogram is its spectrum times independent
+    exponentials (Whittle), so each half's p-value is valid, the larger of the
+    two too; the factor m holds whatever the channels' correlation. A
+    stationary mode's peak is in both halves; a transient's (a free decay's
+    high mode that dies out early in a record taken for stationary), whose
+    shape one channel's cross terms distort where the sum over channels
+    averages them out, is not."""
+    n = min(y.shape[1] for y in records)
+    parts = ([y[:, : n // 2] for y in records], [y[:, n // 2 : n] for y in records])
+    each = np.array([[pvalue(part, row) for row in channel_periodograms(part)] for part in parts])  # (2, m, k)
+    return np.minimum(1.0, each.shape[1] * each.max(axis=0).min(axis=0))
+
+
+def peak_in_any(records: list[np.ndarray], dt: float, omega: np.ndarray, zeta: np.ndarray,
+                which: list[int]) -> np.ndarray:
+    """p-values (k,) of the candidates ``which`` (the others 1; arguments as
+    :func:`peak_lr`, every candidate a neighbour) for a peak in the summed
+    periodogram or in one channel's: ``min(1, 2 min(p_sum, p_one))``,
+    ``p_one`` by :func:`in_one_channel` (``p_sum`` alone for one channel).
+    A weak mode that few channels see above their noise (a low-noise
+    sensor, or a quantity that favours its band) is diluted in the unit-RMS
+    sum by the channels whose noise or other modes fill its band."""
+    _, summed = peak_lr(records, dt, omega, zeta, which)
+    if records[0].shape[0] == 1:
+        return summed
+    one = in_one_channel(records, lambda part, row: peak_lr(part, dt, omega, zeta, which, summed=row)[1])
+    return np.minimum(1.0, 2.0 * np.minimum(summed, one))
