@@ -180,7 +180,11 @@ cheaper form (65a2417, run once); the twenty-first round's check at the
 band fit's widened errors was designed on 1,022,207 and measured on
 1,015,000-1,015,599, and 1,023,000-1,024,999 were fresh for it (664c7f6,
 run once; then f3a4904, the code before, on the same seeds, run once);
-seeds 1,025,000 and above have never been run.
+the twenty-second round's peak in one channel (identifier/modal/peak_test.py,
+``in_one_channel``) was designed on the misses of 1,023,000-1,024,999 and
+on 1,013,201 and measured on them and on 1,015,000-1,015,599, which are
+tuning seeds now; 1,025,000-1,026,999 were fresh for it (870610b, run
+once); seeds 1,027,000 and above have never been run.
 """
 from __future__ import annotations
 

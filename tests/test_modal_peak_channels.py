@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import modal_fuzz
 import numpy as np
-import pytest
 from modal_synth import forced
 from scipy.stats import chi2
 
