@@ -115,7 +115,7 @@ def test_a_channel_peak_must_hold_in_both_halves(monkeypatch):
     result = modal.identify([trace])
     assert not any(result.details["short_lags"]["added"])
 
-    def whole(records, pvalue):
+    def whole(records, pvalue, halves=None):
         rows = peak_test.channel_periodograms(records)
         return np.minimum(1.0, len(rows) * np.min([pvalue(records, row) for row in rows], axis=0))
     monkeypatch.setattr(peak_test, "in_one_channel", whole)

@@ -295,6 +295,7 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
     like = alike(scaled)
     half = peak_test.half_width(omega, top, min(y.shape[1] for y in records) * dt)  # at zeta_top
     open_ = [j for j in range(omega.size) if not reasons[j]]
+    halves = None  # the records' halves and their channels' periodograms, once a candidate needs them
     for i in faint:
         level = TOP_ALPHA if omega[i] > max((omega[j] for j in open_ if j != i), default=0.0) else peak_test.ALPHA
         high = np.where(np.arange(omega.size) == i, top, zeta)
@@ -320,8 +321,11 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
         own, p_own = test(peak_test.projected_periodogram(records, u))
         if p_own < level:
             continue
-        p_one = float(peak_test.in_one_channel(records, lambda part, row: np.array([test(row, part)[1]]))[0]) \
-            if len(scaled) > 1 else 1.0
+        p_one = 1.0
+        if len(scaled) > 1:
+            halves = peak_test.channel_halves(records) if halves is None else halves
+            p_one = float(peak_test.in_one_channel(records, lambda part, row: np.array([test(row, part)[1]]),
+                                                   halves)[0])
         if p_one >= level:
             reasons[i] = (f"{why[i]} and no spectral peak of its own at zeta {abs(zeta[i]):.3g} "
                           f"or {top[i]:.3g} (likelihood ratio {stat:.3g} summed, {own:.3g} in its shape; "

@@ -246,22 +246,30 @@ def peak_lr(records: list[np.ndarray], dt: float, omega: np.ndarray,
     return stat, pvalue
 
 
-def in_one_channel(records: list[np.ndarray], pvalue: Callable[[list[np.ndarray], np.ndarray], np.ndarray]
-                   ) -> np.ndarray:
+def channel_halves(records: list[np.ndarray]) -> tuple[tuple[list[np.ndarray], np.ndarray], ...]:
+    """The first and the second half of records (m, n_i) cut to the shortest,
+    each with its :func:`channel_periodograms` (m, n // 4 + 1)."""
+    n = min(y.shape[1] for y in records)
+    parts = ([y[:, : n // 2] for y in records], [y[:, n // 2 : n] for y in records])
+    return tuple((part, channel_periodograms(part)) for part in parts)
+
+
+def in_one_channel(records: list[np.ndarray], pvalue: Callable[[list[np.ndarray], np.ndarray], np.ndarray],
+                   halves: tuple[tuple[list[np.ndarray], np.ndarray], ...] | None = None) -> np.ndarray:
     """The chance that one channel shows a peak: ``min(1, m min_i max(p_i',
     p_i''))`` (k,) over the m channels of the records (m, n_i) cut to the
     shortest, ``p_i'`` and ``p_i''`` the p-values (k,) that ``pvalue(part,
     periodogram)`` gives channel i's periodogram in the first and the second
-    half of them. One channel's periodogram is its spectrum times independent
+    half of them (``halves``: :func:`channel_halves` of the records, computed
+    when None). One channel's periodogram is its spectrum times independent
     exponentials (Whittle), so each half's p-value is valid, the larger of the
     two too; the factor m holds whatever the channels' correlation. A
     stationary mode's peak is in both halves; a transient's (a free decay's
     high mode that dies out early in a record taken for stationary), whose
     shape one channel's cross terms distort where the sum over channels
     averages them out, is not."""
-    n = min(y.shape[1] for y in records)
-    parts = ([y[:, : n // 2] for y in records], [y[:, n // 2 : n] for y in records])
-    each = np.array([[pvalue(part, row) for row in channel_periodograms(part)] for part in parts])  # (2, m, k)
+    halves = channel_halves(records) if halves is None else halves
+    each = np.array([[pvalue(part, row) for row in rows] for part, rows in halves])  # (2, m, k)
     return np.minimum(1.0, each.shape[1] * each.max(axis=0).min(axis=0))
 
 
