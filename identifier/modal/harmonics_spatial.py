@@ -61,6 +61,7 @@ from scipy import stats
 GAP = 3  # lines either side of j left out of S_j (a sinusoid's main lobe and scalloping)
 SPATIAL_P = 1e-3  # chance that a record's random response gives any line over the bar
 HANN = 1 + 2 * ((2 / 3)**2 + (1 / 6)**2)  # lines per independent one in a Hann cross-spectrum mean
+EMPTY = 1e-10  # line power, relative to the record's largest, under which a line holds nothing to whiten
 
 
 def independent_lines(window: int) -> float:
@@ -82,14 +83,14 @@ def spatial_bar(m: int, lines: int, window: int) -> float:
 
 def whitened(X: np.ndarray, window: int, chunk: int = 4096) -> np.ndarray:
     """``T_j = X_j^H S_j^-1 X_j`` (lines,) of the transforms ``X`` (m, lines) (module docstring);
-    NaN within ``window`` lines of either end. ``S_j`` gets a ridge of 1e-12 of its trace so that
-    identical channels do not make it singular."""
+    NaN within ``window`` lines of either end and where the record holds nothing (:func:`_form`).
+    ``S_j`` gets a ridge of 1e-12 of its trace so that identical channels do not make it singular."""
     m, L = X.shape
     T = np.full(L, np.nan)
     if L <= 2 * window + 1:
         return T
     n = 2 * (window - GAP)
-    eye = np.eye(m)
+    top = _top(X)
     for start in range(window, L - window, chunk):
         stop = min(start + chunk, L - window)
         lo, hi = start - window, stop + window
@@ -97,9 +98,7 @@ def whitened(X: np.ndarray, window: int, chunk: int = 4096) -> np.ndarray:
         cum = np.concatenate([np.zeros((1, m, m), complex), np.cumsum(np.einsum("mj,nj->jmn", Xc, Xc.conj()), axis=0)])
         j = np.arange(start, stop) - lo
         S = (cum[j - GAP] - cum[j - window] + cum[j + window + 1] - cum[j + GAP + 1]) / n
-        S += 1e-12 * np.einsum("jii->j", S).real[:, None, None] / m * eye
-        x = X[:, start:stop].T[:, :, None]
-        T[start:stop] = np.real(np.sum(np.conj(x) * np.linalg.solve(S, x), axis=(1, 2)))
+        T[start:stop] = _form(S, X[:, start:stop], top)
     return T
 
 
@@ -114,19 +113,35 @@ def sided(X: np.ndarray, window: int, chunk: int = 4096) -> tuple[np.ndarray, np
     left, right = np.full(L, np.nan), np.full(L, np.nan)
     if L <= 2 * reach + 1:
         return left, right
-    eye = np.eye(m)
+    top = _top(X)
     for start in range(reach, L - reach, chunk):
         stop = min(start + chunk, L - reach)
         lo, hi = start - reach, stop + reach
         Xc = X[:, lo:hi]
         cum = np.concatenate([np.zeros((1, m, m), complex), np.cumsum(np.einsum("mj,nj->jmn", Xc, Xc.conj()), axis=0)])
         j = np.arange(start, stop) - lo
-        x = X[:, start:stop].T[:, :, None]
         for out, S in ((left, cum[j - GAP] - cum[j - reach]), (right, cum[j + reach + 1] - cum[j + GAP + 1])):
-            S = S / n
-            S += 1e-12 * np.einsum("jii->j", S).real[:, None, None] / m * eye
-            out[start:stop] = np.real(np.sum(np.conj(x) * np.linalg.solve(S, x), axis=(1, 2)))
+            out[start:stop] = _form(S / n, X[:, start:stop], top)
     return left, right
+
+
+def _top(X: np.ndarray) -> float:
+    """The largest mean power ``mean_i |X_ij|^2`` over the lines of the transforms ``X`` (m, lines)."""
+    return float(np.max(np.mean(np.abs(X) ** 2, axis=0), initial=0.0))
+
+
+def _form(S: np.ndarray, X: np.ndarray, top: float) -> np.ndarray:
+    """``x_j^H S_j^-1 x_j`` (lines,) for ``S`` (lines, m, m) and ``X`` (m, lines), ``S_j`` with a ridge of
+    1e-12 of its mean diagonal; NaN where that mean is under ``EMPTY`` times ``top``, the record's largest
+    mean line power (the running sums' rounding: a band the record holds nothing in, as a band-pass
+    filter in the frequency domain leaves it)."""
+    m = X.shape[0]
+    level = np.einsum("jii->j", S).real / m
+    T = np.full(X.shape[1], np.nan)
+    ok = np.isfinite(level) & (level > EMPTY * top)
+    x = X[:, ok].T[:, :, None]
+    T[ok] = np.real(np.sum(np.conj(x) * np.linalg.solve(S[ok] + 1e-12 * level[ok, None, None] * np.eye(m), x), axis=(1, 2)))
+    return T
 
 
 def side_medians(T: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
