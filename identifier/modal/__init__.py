@@ -175,7 +175,7 @@ def identify(traces: Sequence[Trace], model: Model | None = None, quantity: str 
     found = run(traces)
     if not (uncertainty == "jackknife" and drop_unrepeated):  # the further passes only with the replicate test on
         return found
-    records, _, dt = sensor_records(traces, quantity)
+    records, _, dt, _ = sensor_records(traces, quantity)
     if free_response(traces, records)[1]:  # the further passes are for stationary records, mean removed
         return found
     records = [y - y.mean(axis=1, keepdims=True) for y in records]
@@ -198,7 +198,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     if uncertainty not in UNCERTAINTY:
         raise IdentificationError(f"unknown uncertainty {uncertainty!r}; known: {', '.join(UNCERTAINTY)}",
                                   field="uncertainty")
-    records, channels, dt = sensor_records(traces, quantity)
+    records, channels, dt, left_out = sensor_records(traces, quantity)
     tune_from_environment()
     m = records[0].shape[0]
     r = min(references, m)
@@ -332,7 +332,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
-                 "warnings": _warnings(free, f_low, length),
+                 "warnings": left_out + _warnings(free, f_low, length),
                  "stabilisation": _diagram(poles, flags)})), []
 
 

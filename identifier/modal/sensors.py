@@ -17,9 +17,10 @@ from .ssi.covariance import is_free_decay
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
 
 
-def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndarray], list[Channel], float]:
+def sensor_records(traces: Sequence[Trace], quantity: str
+                   ) -> tuple[list[np.ndarray], list[Channel], float, list[str]]:
     """Per trace the outputs (m, n), the channels (of the first trace, sorted
-    by (node, direction)) and dt s. ``quantity``: every sensor of that
+    by (node, direction)), dt s and a note for each channel left out (:func:`usable`). ``quantity``: every sensor of that
     quantity; ``auto``: at every sensor location (node, direction) one
     channel, its displacement, else velocity, else acceleration, so that a
     run whose locations carry different quantities uses them all (each
@@ -51,11 +52,35 @@ def sensor_records(traces: Sequence[Trace], quantity: str) -> tuple[list[np.ndar
             raise IdentificationError(f"{trace.path.name}: dt {trace.dt} s differs from {first.dt} s",
                                       field="dt")
         records.append(np.vstack([c.data for c in here]))
-    if not any(np.ptp(y, axis=1).max() > 0 for y in records):
+    keep, notes = usable(records, [c.name for c in channels])
+    if not keep:
         kinds = " and ".join(sorted({c.quantity for c in channels}))
         raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
                                   f"no response to identify", field="channels")
-    return records, channels, first.dt
+    return [y[keep] for y in records], [channels[i] for i in keep], first.dt, notes
+
+
+def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-12) -> tuple[list[int], list[str]]:
+    """The channels (indices into the rows of each record (m, n)) that carry a response of their own, and
+    a note for each one left out: constant in every record (a dead or unplugged sensor), or a copy of an
+    earlier kept channel up to scale and offset (``1 - |r| <= tol``, ``r`` the correlation of the records'
+    centred samples; a channel logged twice). Either makes the outputs' covariance singular."""
+    centred = [y - y.mean(axis=1, keepdims=True) for y in records]
+    gram = sum(c @ c.T for c in centred)
+    power = np.diag(gram).copy()
+    dead = np.all([np.ptp(y, axis=1) == 0 for y in records], axis=0)
+    keep: list[int] = []
+    notes: list[str] = []
+    for j, name in enumerate(names):
+        if dead[j]:
+            notes.append(f"channel {name} is constant in every trace: left out")
+            continue
+        twin = [i for i in keep if 1 - abs(gram[i, j]) / np.sqrt(power[i] * power[j]) <= tol]
+        if twin:
+            notes.append(f"channel {name} repeats channel {names[twin[0]]} (correlation 1): left out")
+            continue
+        keep.append(j)
+    return keep, notes
 
 
 def free_response(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> tuple[bool, bool]:
