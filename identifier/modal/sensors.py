@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy import stats
 
 from structbench.models.channels import QUANTITIES as RESPONSES
 
@@ -15,6 +16,7 @@ from .close_pairs import FREE_KINDS
 from .ssi.covariance import is_free_decay
 
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
+CLIPPED_P = 1e-6  # chance that a channel's extreme value gathers as many samples without clipping
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str
@@ -54,26 +56,31 @@ def sensor_records(traces: Sequence[Trace], quantity: str
         records.append(np.vstack([c.data for c in here]))
     keep, notes = usable(records, [c.name for c in channels])
     if not keep:
-        kinds = " and ".join(sorted({c.quantity for c in channels}))
-        raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
-                                  f"no response to identify", field="channels")
+        raise IdentificationError(f"{first.path.name}: no channel carries a response to identify: "
+                                  + "; ".join(n.removesuffix(": left out") for n in notes), field="channels")
     return [y[keep] for y in records], [channels[i] for i in keep], first.dt, notes
 
 
 def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-12) -> tuple[list[int], list[str]]:
     """The channels (indices into the rows of each record (m, n)) that carry a response of their own, and
-    a note for each one left out: constant in every record (a dead or unplugged sensor), or a copy of an
-    earlier kept channel up to scale and offset (``1 - |r| <= tol``, ``r`` the correlation of the records'
-    centred samples; a channel logged twice). Either makes the outputs' covariance singular."""
+    a note for each one left out: constant in every record (a dead or unplugged sensor); clipped in any
+    (:func:`clipped`: an overloaded sensor or amplifier, whose harmonics and intermodulation would pass
+    for modes); or a copy of an earlier kept channel up to scale and offset (``1 - |r| <= tol``, ``r`` the
+    correlation of the records' centred samples; a channel logged twice, which makes the outputs'
+    covariance singular)."""
     centred = [y - y.mean(axis=1, keepdims=True) for y in records]
     gram = sum(c @ c.T for c in centred)
     power = np.diag(gram).copy()
     dead = np.all([np.ptp(y, axis=1) == 0 for y in records], axis=0)
+    pile = np.max([clipped(y) for y in records], axis=0)
     keep: list[int] = []
     notes: list[str] = []
     for j, name in enumerate(names):
         if dead[j]:
             notes.append(f"channel {name} is constant in every trace: left out")
+            continue
+        if pile[j]:
+            notes.append(f"channel {name} is clipped ({pile[j]} samples at its extreme value): left out")
             continue
         twin = [i for i in keep if 1 - abs(gram[i, j]) / np.sqrt(power[i] * power[j]) <= tol]
         if twin:
@@ -81,6 +88,24 @@ def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-
             continue
         keep.append(j)
     return keep, notes
+
+
+def clipped(y: np.ndarray, level: float = CLIPPED_P) -> np.ndarray:
+    """Per channel of ``y`` (m, n) the samples piled up at its largest or smallest value, 0 where there is
+    no pile-up (m,). Without clipping the samples at the extreme value ``c_1`` and at the next one inward
+    ``c_2`` are few and alike: one each in a continuous record; in a quantised one ``c_1 <= c_2`` on
+    average where the tail falls outward, ``c_1`` up to 1.4 ``c_2`` at a sinusoid's crest (the arcsine
+    law); clipping piles every sample beyond the level onto it. Clipped where
+    ``P(Binomial(c_1 + c_2, 2/3) >= c_1) < level``, on either side."""
+    out = np.zeros(y.shape[0], dtype=int)
+    for side in (y, -y):
+        top = side.max(axis=1, keepdims=True)
+        c1 = np.sum(side == top, axis=1)
+        inner = np.where(side < top, side, -np.inf).max(axis=1, keepdims=True)
+        c2 = np.sum(side == inner, axis=1)
+        pile = stats.binom.sf(c1 - 1, c1 + c2, 2 / 3) < level
+        out = np.where(pile, np.maximum(out, c1), out)
+    return out
 
 
 def free_response(traces: Sequence[Trace], records: Sequence[np.ndarray]) -> tuple[bool, bool]:
