@@ -64,9 +64,10 @@ def test_the_identification_is_that_of_the_other_channels():
 
 def test_clipping_is_told_from_a_tail_and_a_quantised_crest():
     """Gaussian records of 40,000 samples clipped at 2 and 3 RMS (about 910 and 54 samples beyond each
-    side): flagged with every sample beyond the level counted (20 seeds, 4 channels each); unclipped,
-    quantised to 8 bits, or a quantised sinusoid (the arcsine law piles samples at its crest): never
-    flagged."""
+    side): flagged with every sample beyond the level counted (20 seeds, 4 channels each), and 2,000
+    samples of them at 2.5 RMS wherever 3 or more are beyond; unclipped, quantised to 8 bits, a quantised
+    sinusoid (the arcsine law piles samples at its crest) or a one-sided record at rest before and after:
+    never flagged."""
     for seed in range(20):
         rng = np.random.default_rng(seed)
         y = rng.standard_normal((4, 40_000))
@@ -77,6 +78,11 @@ def test_clipping_is_told_from_a_tail_and_a_quantised_crest():
         crest = np.round(rng.uniform(3, 200) * np.sin(rng.uniform(0.5, 2) * np.arange(40_000) * 0.01))
         assert not clipped(y).any() and not clipped(np.round(y / step) * step).any()
         assert not clipped(crest[None]).any()
+        few = np.clip(y[:, :2_000], -2.5, 2.5)  # a short continuous record: a few samples beyond suffice
+        beyond = np.maximum(np.sum(y[:, :2_000] >= 2.5, axis=1), np.sum(y[:, :2_000] <= -2.5, axis=1))
+        assert np.array_equal(clipped(few), np.where(beyond >= 3, beyond, 0))
+        rest = np.concatenate([np.zeros((4, 300)), y[:, :2_000] ** 2, np.zeros((4, 50))], axis=1)
+        assert not clipped(rest).any()  # one-sided, at rest before and after: its zeros are no pile-up
 
 
 def test_a_clipped_channel_is_left_out_and_a_clipped_record_refused():

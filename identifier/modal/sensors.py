@@ -16,7 +16,8 @@ from .close_pairs import FREE_KINDS
 from .ssi.covariance import is_free_decay
 
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
-CLIPPED_P = 1e-6  # chance that a channel's extreme value gathers as many samples without clipping
+CLIPPED_P = 1e-6  # chance that a quantised channel's extreme value gathers as many samples without clipping
+TIES = 3  # samples at the extreme value of a continuous channel that only clipping gives
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str
@@ -93,17 +94,25 @@ def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-
 def clipped(y: np.ndarray, level: float = CLIPPED_P) -> np.ndarray:
     """Per channel of ``y`` (m, n) the samples piled up at its largest or smallest value, 0 where there is
     no pile-up (m,). Without clipping the samples at the extreme value ``c_1`` and at the next one inward
-    ``c_2`` are few and alike: one each in a continuous record; in a quantised one ``c_1 <= c_2`` on
-    average where the tail falls outward, ``c_1`` up to 1.4 ``c_2`` at a sinusoid's crest (the arcsine
-    law); clipping piles every sample beyond the level onto it. Clipped where
-    ``P(Binomial(c_1 + c_2, 2/3) >= c_1) < level``, on either side."""
+    ``c_2`` are few and alike: one each in a continuous record (over 90 % of its values distinct); in a
+    quantised one ``c_1 <= c_2`` on average where the tail falls outward, ``c_1`` up to 1.4 ``c_2`` at a
+    sinusoid's crest (the arcsine law); clipping piles every sample beyond the level onto it. Clipped
+    where ``c_1 >= TIES`` in a continuous record, else where ``P(Binomial(c_1 + c_2, 2/3) >= c_1) <
+    level``, on either side. A leading or trailing run of ``TIES`` samples or more of one value (a record
+    at rest before or after) is not counted."""
+    n = y.shape[1]
+    lead = np.cumprod(y == y[:, :1], axis=1).astype(bool)
+    trail = np.cumprod(y[:, ::-1] == y[:, -1:], axis=1)[:, ::-1].astype(bool)
+    run = lead & (lead.sum(axis=1, keepdims=True) >= TIES) | trail & (trail.sum(axis=1, keepdims=True) >= TIES)
+    continuous = np.array([np.unique(row).size for row in y]) >= 0.9 * n
     out = np.zeros(y.shape[0], dtype=int)
     for side in (y, -y):
+        side = np.where(run, -np.inf, side)
         top = side.max(axis=1, keepdims=True)
         c1 = np.sum(side == top, axis=1)
         inner = np.where(side < top, side, -np.inf).max(axis=1, keepdims=True)
         c2 = np.sum(side == inner, axis=1)
-        pile = stats.binom.sf(c1 - 1, c1 + c2, 2 / 3) < level
+        pile = np.where(continuous, c1 >= TIES, stats.binom.sf(c1 - 1, c1 + c2, 2 / 3) < level) & np.isfinite(top[:, 0])
         out = np.where(pile, np.maximum(out, c1), out)
     return out
 
