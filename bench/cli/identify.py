@@ -204,4 +204,15 @@ def run(args: argparse.Namespace) -> int:
           f"{api.results_file(args.campaign_dir, args.method, args.tag)}")
     for i, result in enumerate(runs):
         print("\n".join(table(result) if i == 0 else table(result)[:1]))
+    for line in warnings(runs):
+        print(line)
     return 0
+
+
+def warnings(runs: list[dict[str, Any]]) -> list[str]:
+    """The methods' warnings (``details.warnings``), each once, with the runs it came from when not all."""
+    seen: dict[str, int] = {}
+    for result in runs:
+        for text in dict.fromkeys((result.get("details") or {}).get("warnings") or []):
+            seen[text] = seen.get(text, 0) + 1
+    return [f"WARNING{'' if n == len(runs) else f' ({n} of {len(runs)} runs)'}: {text}" for text, n in seen.items()]

@@ -56,6 +56,10 @@ def sensor_records(traces: Sequence[Trace], quantity: str
                                       field="dt")
         records.append(np.vstack([c.data for c in here]))
     keep, notes = usable(records, [c.name for c in channels])
+    if not keep and all("constant" in n for n in notes):
+        kinds = " and ".join(sorted({c.quantity for c in channels}))
+        raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
+                                  f"no response to identify", field="channels")
     if not keep:
         raise IdentificationError(f"{first.path.name}: no channel carries a response to identify: "
                                   + "; ".join(n.removesuffix(": left out") for n in notes), field="channels")
