@@ -42,7 +42,7 @@ def mangled(draw: st.DrawFn) -> tuple[np.ndarray, float]:
     return y, dt
 
 
-@settings(max_examples=30)
+@settings(max_examples=20)
 @given(mangled())
 def test_a_mangled_record_is_identified_or_refused(record):
     y, dt = record

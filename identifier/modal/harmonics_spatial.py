@@ -140,7 +140,8 @@ def _form(S: np.ndarray, X: np.ndarray, top: float) -> np.ndarray:
     T = np.full(X.shape[1], np.nan)
     ok = np.isfinite(level) & (level > EMPTY * top)
     x = X[:, ok].T[:, :, None]
-    T[ok] = np.real(np.sum(np.conj(x) * np.linalg.solve(S[ok] + 1e-12 * level[ok, None, None] * np.eye(m), x), axis=(1, 2)))
+    ridged = S[ok] + 1e-12 * level[ok, None, None] * np.eye(m)
+    T[ok] = np.real(np.sum(np.conj(x) * np.linalg.solve(ridged, x), axis=(1, 2)))
     return T
 
 

@@ -23,12 +23,13 @@ TIES = 3  # samples at the extreme value of a continuous channel that only clipp
 def sensor_records(traces: Sequence[Trace], quantity: str
                    ) -> tuple[list[np.ndarray], list[Channel], float, list[str]]:
     """Per trace the outputs (m, n), the channels (of the first trace, sorted
-    by (node, direction)), dt s and a note for each channel left out (:func:`usable`). ``quantity``: every sensor of that
-    quantity; ``auto``: at every sensor location (node, direction) one
-    channel, its displacement, else velocity, else acceleration, so that a
-    run whose locations carry different quantities uses them all (each
-    channel is scaled by its RMS before the covariances, and the poles are
-    the same whatever the quantity). One sensor is enough."""
+    by (node, direction)), dt s and a note for each channel left out
+    (:func:`usable`). ``quantity``: every sensor of that quantity; ``auto``:
+    at every sensor location (node, direction) one channel, its
+    displacement, else velocity, else acceleration, so that a run whose
+    locations carry different quantities uses them all (each channel is
+    scaled by its RMS before the covariances, and the poles are the same
+    whatever the quantity). One sensor is enough."""
     if quantity not in QUANTITIES:
         raise IdentificationError(f"unknown quantity {quantity!r}; known: {', '.join(QUANTITIES)}",
                                   field="quantity")
@@ -116,7 +117,8 @@ def clipped(y: np.ndarray, level: float = CLIPPED_P) -> np.ndarray:
         c1 = np.sum(side == top, axis=1)
         inner = np.where(side < top, side, -np.inf).max(axis=1, keepdims=True)
         c2 = np.sum(side == inner, axis=1)
-        pile = np.where(continuous, c1 >= TIES, stats.binom.sf(c1 - 1, c1 + c2, 2 / 3) < level) & np.isfinite(top[:, 0])
+        pile = np.where(continuous, c1 >= TIES, stats.binom.sf(c1 - 1, c1 + c2, 2 / 3) < level)
+        pile &= np.isfinite(top[:, 0])  # not every sample in a run
         out = np.where(pile, np.maximum(out, c1), out)
     return out
 
