@@ -18,6 +18,7 @@ from .ssi.covariance import is_free_decay
 QUANTITIES = ("auto", *(q for q in RESPONSES if q != "force"))
 CLIPPED_P = 1e-6  # chance that a quantised channel's extreme value gathers as many samples without clipping
 TIES = 3  # samples at the extreme value of a continuous channel that only clipping gives
+SOME = 4096  # samples, evenly spread, whose distinct values tell a continuous channel from a quantised one
 
 
 def sensor_records(traces: Sequence[Trace], quantity: str
@@ -99,17 +100,19 @@ def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-
 def clipped(y: np.ndarray, level: float = CLIPPED_P) -> np.ndarray:
     """Per channel of ``y`` (m, n) the samples piled up at its largest or smallest value, 0 where there is
     no pile-up (m,). Without clipping the samples at the extreme value ``c_1`` and at the next one inward
-    ``c_2`` are few and alike: one each in a continuous record (over 90 % of its values distinct); in a
-    quantised one ``c_1 <= c_2`` on average where the tail falls outward, ``c_1`` up to 1.4 ``c_2`` at a
-    sinusoid's crest (the arcsine law); clipping piles every sample beyond the level onto it. Clipped
-    where ``c_1 >= TIES`` in a continuous record, else where ``P(Binomial(c_1 + c_2, 2/3) >= c_1) <
-    level``, on either side. A leading or trailing run of ``TIES`` samples or more of one value (a record
-    at rest before or after) is not counted."""
+    ``c_2`` are few and alike: one each in a continuous record (over 90 % of ``SOME`` of its samples,
+    evenly spread, distinct); in a quantised one ``c_1 <= c_2`` on average where the tail falls outward,
+    ``c_1`` up to 1.4 ``c_2`` at a sinusoid's crest (the arcsine law); clipping piles every sample beyond
+    the level onto it. Clipped where ``c_1 >= TIES`` in a continuous record, else where
+    ``P(Binomial(c_1 + c_2, 2/3) >= c_1) < level``, on either side. A leading or trailing run of ``TIES``
+    samples or more of one value (a record at rest before or after) is not counted."""
     n = y.shape[1]
-    lead = np.cumprod(y == y[:, :1], axis=1).astype(bool)
-    trail = np.cumprod(y[:, ::-1] == y[:, -1:], axis=1)[:, ::-1].astype(bool)
-    run = lead & (lead.sum(axis=1, keepdims=True) >= TIES) | trail & (trail.sum(axis=1, keepdims=True) >= TIES)
-    continuous = np.array([np.unique(row).size for row in y]) >= 0.9 * n
+    lead, trail = (np.where(np.all(x == x[:, :1], axis=1), n, np.argmax(x != x[:, :1], axis=1))[:, None]
+                   for x in (y, y[:, ::-1]))  # lengths (m, 1) of the leading and trailing runs of one value
+    k = np.arange(n)
+    run = (k < lead) & (lead >= TIES) | (k >= n - trail) & (trail >= TIES)
+    some = np.sort(y[:, ::max(1, n // SOME)], axis=1)  # the distinct share of evenly spread samples
+    continuous = 1 + np.count_nonzero(np.diff(some, axis=1), axis=1) >= 0.9 * some.shape[1]
     out = np.zeros(y.shape[0], dtype=int)
     for side in (y, -y):
         side = np.where(run, -np.inf, side)
