@@ -204,12 +204,12 @@ def run(args: argparse.Namespace) -> int:
           f"{api.results_file(args.campaign_dir, args.method, args.tag)}")
     for i, result in enumerate(runs):
         print("\n".join(table(result) if i == 0 else table(result)[:1]))
-    for line in warnings(runs):
+    for line in method_warnings(runs):
         print(line)
     return 0
 
 
-def warnings(runs: list[dict[str, Any]]) -> list[str]:
+def method_warnings(runs: list[dict[str, Any]]) -> list[str]:
     """The methods' warnings (``details.warnings``), each once, with the runs it came from when not all."""
     seen: dict[str, int] = {}
     for result in runs:

@@ -300,12 +300,12 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
         level = TOP_ALPHA if omega[i] > max((omega[j] for j in open_ if j != i), default=0.0) else peak_test.ALPHA
         high = np.where(np.arange(omega.size) == i, top, zeta)
 
-        def test(spectrum: np.ndarray, part: list[np.ndarray] = records) -> tuple[float, float]:
+        def test(spectrum: np.ndarray, part: list[np.ndarray]) -> tuple[float, float]:
             found = [peak_test.peak_lr(part, dt, omega, zeta, [i], excluded={i: dropped}, summed=spectrum,
                                        wide=z) for z in (zeta, high)]
             return max(stat[i] for stat, _ in found), min(1.0, 2.0 * min(p[i] for _, p in found))
 
-        stat, pvalue = test(summed)
+        stat, pvalue = test(summed, records)
         if pvalue < level:
             continue
         u = scaled[:, i] / max(np.linalg.norm(scaled[:, i]), 1e-300)
@@ -318,7 +318,7 @@ def _faint(records: list[np.ndarray], dt: float, summed: np.ndarray, omega: np.n
                           f"{top[i]:.3g} (likelihood ratio {stat:.3g}, p-value {pvalue:.2g}; needs under "
                           f"{level:g}) and a shape {apart:.2f} apart from its neighbours' (under {APART:g})")
             continue
-        own, p_own = test(peak_test.projected_periodogram(records, u))
+        own, p_own = test(peak_test.projected_periodogram(records, u), records)
         if p_own < level:
             continue
         p_one = 1.0

@@ -57,11 +57,11 @@ def sensor_records(traces: Sequence[Trace], quantity: str
             raise IdentificationError(f"{trace.path.name}: dt {trace.dt} s differs from {first.dt} s",
                                       field="dt")
         records.append(np.vstack([c.data for c in here]))
-    keep, notes = usable(records, [c.name for c in channels])
-    if not keep and all("constant" in n for n in notes):
+    if not any(np.ptp(y, axis=1).max() > 0 for y in records):
         kinds = " and ".join(sorted({c.quantity for c in channels}))
         raise IdentificationError(f"{first.path.name}: every {kinds} channel is constant in every trace: "
                                   f"no response to identify", field="channels")
+    keep, notes = usable(records, [c.name for c in channels])
     if not keep:
         raise IdentificationError(f"{first.path.name}: no channel carries a response to identify: "
                                   + "; ".join(n.removesuffix(": left out") for n in notes), field="channels")
@@ -77,7 +77,7 @@ def usable(records: Sequence[np.ndarray], names: Sequence[str], tol: float = 1e-
     covariance singular)."""
     centred = [y - y.mean(axis=1, keepdims=True) for y in records]
     gram = sum(c @ c.T for c in centred)
-    power = np.diag(gram).copy()
+    power = np.diag(gram)
     dead = np.all([np.ptp(y, axis=1) == 0 for y in records], axis=0)
     pile = np.max([clipped(y) for y in records], axis=0)
     keep: list[int] = []
