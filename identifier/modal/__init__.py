@@ -238,7 +238,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
         replicates = Replicates(cov, W, H, U) if uncertainty == "jackknife" else None
         rows = subspace(U, mo)
         space = Subspace(full[:q].transpose(1, 0, 2).reshape(m, -1) @ (V / s), rows.gram, rows.shift)
-        poles = [poles_at(space, n, dt, cov.scale) for n in range(2, order_cap + 1, 2)]
+        poles = [poles_at(space, n, dt, cov.scale) for n in range(2, min(order_cap, space.orders) + 1, 2)]
         by_order = {pl.order: pl for pl in poles}
         fit = {}  # (order, index) of a mode's representative pole: the mode's coherence
         incoherent: list[dict] = []  # the candidates the coherence test rejects, for details.rejected

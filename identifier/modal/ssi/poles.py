@@ -18,6 +18,7 @@ from functools import cached_property
 
 import numpy as np
 import scipy.linalg as la
+from scipy.linalg import lapack
 
 
 @dataclass(frozen=True)
@@ -56,10 +57,20 @@ class Subspace:
         L^-1 K L^-T`` (N, N): for every order ``n``, ``L_n`` (the leading
         n x n block) is the Cholesky factor of ``G_n`` and ``T_n = L_n^-1 K_n
         L_n^-T`` (``L^-1`` is lower triangular), similar to ``M_n = G_n^-1
-        K_n``: one factorisation serves every order."""
-        L = la.cholesky(self.gram, lower=True, check_finite=False)
-        LiK = la.solve_triangular(L, self.shift, lower=True, check_finite=False)
+        K_n``: one factorisation serves every order up to :attr:`orders`."""
+        n = self.orders
+        L = la.cholesky(self.gram[:n, :n], lower=True, check_finite=False)
+        LiK = la.solve_triangular(L, self.shift[:n, :n], lower=True, check_finite=False)
         return L, la.solve_triangular(L, LiK.T, lower=True, check_finite=False).T
+
+
+    @cached_property
+    def orders(self) -> int:
+        """The highest model order ``n`` whose ``G_n`` is positive definite: every order of the basis
+        but where a basis vector lies in the last block row alone (a Hankel matrix of lower rank than
+        the order: a record that holds a few sinusoids on many channels)."""
+        info = lapack.dpotrf(self.gram, lower=1)[1]
+        return self.gram.shape[0] if info == 0 else info - 1
 
 
 def subspace(B: np.ndarray, m: int) -> Subspace:
