@@ -116,7 +116,7 @@ from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, 
 from .stabilisation import Criteria, Mode, median, select_modes
 from .support import judge, rejected as support_rejected, with_bias
 from . import harmonics as periodic
-from . import band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output
+from . import band_edges, band_fit, decay_pairs, deflation, decay_search, decay_snr, input_output
 from . import short_lags as lag_pass
 from .refine import refine_poles
 from .free_shapes import free_decay_shapes
@@ -332,7 +332,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
-                 "warnings": left_out + _warnings(free, f_low, length),
+                 "warnings": left_out + _warnings(free, f_low, length) + band_edges.edge_warnings(records, dt),
                  "stabilisation": _diagram(poles, flags)})), []
 
 

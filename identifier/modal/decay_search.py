@@ -11,7 +11,9 @@ candidates and the terms its residual search found) and the poles
 :func:`identifier.modal.ml_residual.missing_poles` fits at the peaks of the
 weighted residual of every pole so far (reported and nuisance) over the
 record's first ``DECAYS`` decay times of its slowest reported mode. Tested
-are those with damping in (0, 1), under Nyquist, with ``FREE_PERIODS``
+are those with damping in (0, 1), under Nyquist and not at an edge of the
+record's band (:mod:`.band_edges`: a filter's ringing after the record's
+start is a damped sinusoid too), with ``FREE_PERIODS``
 periods and ``MIN_DECAYS`` decay times in the record, and resolved from
 every reported pole and every nuisance pole that is no candidate
 (:func:`_candidates`).
@@ -64,6 +66,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..io.traces import Trace
+from . import band_edges
 from .close_pairs.free_decay_fit import omega_zeta
 from .decay_pairs import MIN_SAMPLES, extra_ss_pvalue, pvalues, screen, stretch
 from .decay_snr import screen as matched_filter
@@ -139,6 +142,7 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     length = max(y.shape[1] for y in records) * dt
     nuisance = ml.nuisance if ml.details.get("applied") else np.zeros(0, complex)
     added: list[dict] = []
+    edges = band_edges.band(list(records), dt)
     for _ in range(MAX_ADDED):
         modelled = ml.modelled
         poles = complex_poles(ml.omega[modelled], ml.zeta[modelled])
@@ -147,7 +151,8 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
         n = int(np.ceil(DECAYS / -np.max(poles.real) / dt)) if poles.size else max(y.shape[1] for y in records)
         ts, zs, bs = stretch(records, starts, dt, np.concatenate([poles, nuisance]), n)
         extra = np.concatenate([nuisance, missing_poles(ts, zs, np.concatenate([poles, nuisance]), dt, bs)])
-        ok = _candidates(extra, poles, dt, length)
+        ok = _candidates(extra, poles, dt, length) & ~np.array([bool(why) for why in band_edges.at_edges(
+            edges, np.abs(extra), -extra.real / np.maximum(np.abs(extra), 1e-300))], bool)
         ok &= _candidates(extra, np.concatenate([poles, extra[~ok]]), dt, length)  # and from the poles held
         # beside them (a held pole of a mode under MIN_DECAYS next to a broad one: tuning seed 1,003,278)
         if not ok.any():

@@ -31,6 +31,10 @@ a run add up as independent records):
   heavily damped mode (a free decay of one acceleration sensor, tuning
   seed 1,004,339: -0.016 +- 0.0024 at 36.9 rad/s beside the true 38.7,
   ``zeta`` 0.063). Assumes a passive structure;
+- band edges: a mode whose half-power band reaches within 10 % of the
+  edge of the band a filter or resampling left in the record (its spectrum
+  falls off a cliff there), or lies past it, is not told from the filter's
+  own poles (:mod:`identifier.modal.band_edges`);
 - duplicates: two modes whose shapes agree (MAC above ``DUPLICATE_MAC``
   in physical units or in unit-RMS channels: a channel of a large
   quantity that holds little of the mode, e.g. another mode's
@@ -174,7 +178,7 @@ from scipy.stats import chi2 as chi_square
 
 from structbench.models.mac import mac
 
-from . import peak_pairs, peak_split, peak_test
+from . import band_edges, peak_pairs, peak_split, peak_test
 from .ssi.poles import real_shapes
 
 MIN_PERIODS = 10.0  # least periods of a mode in a stationary record
@@ -267,6 +271,8 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
         elif errors and zeta[i] + UNDAMPED * zeta_std[i] < 0:
             reasons[i] = (f"damping ratio {zeta[i]:.3g} below zero by over {UNDAMPED:g} standard errors "
                           f"({zeta_std[i]:.2g}): a growing pole, no mode of a passive structure")
+    if spectrum is not None:
+        reasons = [r or edge for r, edge in zip(reasons, band_edges.at_edges(band_edges.band(*spectrum), omega, zeta))]
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:
