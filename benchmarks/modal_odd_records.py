@@ -56,7 +56,7 @@ def butter(y, dt, rng):
     nyquist = np.pi / dt
     band = np.sort(rng.uniform(0.02, 0.9, 2)) * nyquist
     sos = signal.butter(4, band, btype="bandpass", fs=2 * nyquist, output="sos")
-    return [(signal.sosfiltfilt(sos, y, axis=1), dt)]
+    return [(signal.sosfiltfilt(sos, y, axis=1), dt)] if y.shape[1] > 3 * (2 * len(sos) + 1) else []
 
 
 def daq(y, dt, rng):
