@@ -18,7 +18,8 @@ Kinds (``rng`` a numpy Generator seeded with the record's seed):
 - ``float32``, ``spike`` (one sample of 100 RMS), ``tiny``/``huge`` (times 1e-12 / 1e12)
 
 Seeds 1,025,000-1,025,799 (spent as tuning seeds) were swept while the
-twenty-third round's changes were made (docs/modal-method.md).
+twenty-third round's changes were made, 1,025,000-1,025,039 while the
+twenty-fourth round's band edges were chosen (docs/modal-method.md).
 
     python benchmarks/modal_odd_records.py [--first 1026000] [--seeds 20] [--kind daq --kind clip ...]
 """
@@ -157,7 +158,7 @@ def main() -> None:
                     print(f"seed {seed} {kind}: {result}", flush=True)
                 counts = tally[kind]
                 counts["records"] += 1
-                counts[result.split()[0]] += 1
+                counts[result.split()[0].rstrip(":")] += 1
                 counts["invented modes"] += int(result.split()[1]) if result.startswith("invented") else 0
     print(f"seeds {args.first}-{args.first + args.seeds - 1}: per kind, records / crashed / refused / non-finite / "
           "records with an invented mode (modes)")
