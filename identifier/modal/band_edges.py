@@ -131,5 +131,5 @@ def edge_warnings(records: list[np.ndarray], dt: float) -> list[str]:
     ends = [(f"starts at {low:.4g}", fall_low)] if fall_low >= CLIFF else []
     ends += [(f"ends at {high:.4g}", fall_high)] if fall_high >= CLIFF else []
     return [f"the record's band {where} rad/s (its spectrum falls {fall:.3g} decades there: a filter or resampling); "
-            f"modes within {MARGIN:.0%} of that edge or past it are not told from the filter's poles and not reported"
+            f"modes within {MARGIN * 100:g} % of that edge or past it are not told from the filter's poles and not reported"
             for where, fall in ends]
