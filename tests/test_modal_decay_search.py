@@ -63,7 +63,7 @@ def test_a_weak_heavily_damped_mode_ssi_misses_is_found_in_the_residual(seed, mo
     assert abs(w[i] - OMEGA[WEAK]) < 3 * se[i] and abs(z[i] - ZETA[WEAK]) < 3 * sz[i]
     assert [round(a["omega"], 3) for a in result.details["ml_refinement"]["search"]] == [round(w[i], 3)]
     assert np.isfinite(result.mode_shapes[i]).all()
-    monkeypatch.setattr(modal.decay_search, "search", lambda traces, records, dt, ml, rejected, refine: (ml, []))
+    monkeypatch.setattr(modal.decay_search, "search", lambda traces, records, dt, ml, rejected, refine, edges: (ml, []))
     without = np.array(modal.identify([trace]).omega)  # SSI and the earlier steps alone miss it
     assert not np.any(np.abs(without - OMEGA[WEAK]) < 0.05 * OMEGA[WEAK])
     assert without.size == w.size - 1

@@ -110,7 +110,7 @@ from .close_pairs import split_free_decays
 from ..io.results import Identification
 from .runtime import one_blas_thread, tune_from_environment
 from .ssi.covariance import covariances, project, reference_channels, row_projection
-from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, signal_span
+from .ssi.design import ROW_CHANNELS, block_sizes, lowest_frequency, short_record_warnings, signal_span
 from .ssi.hankel import BlockHankel, leading_svd
 from .ssi.poles import Poles, Subspace, coherence, mpc, pole_columns, poles_at, real_shapes, subspace
 from .stabilisation import Criteria, Mode, median, select_modes
@@ -272,13 +272,14 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
     omega = np.array([md.omega for md in modes])
     zeta = np.array([md.zeta for md in modes])
     length = (max if free else sum)(y.shape[1] for y in records) * dt  # s: see support.record_bias
+    edges = band_edges.band(records, dt)  # of the band a filter left in the record
     omega_se, zeta_se = with_bias(omega, omega_se, zeta_se, length, free, _scatter(modes, by_order))
     verdict = judge(omega, zeta, omega_se, zeta_se, missed if drop_unrepeated else np.zeros(len(modes)),
                     np.array([md.support for md in modes]),
                     np.array([len({n for n, _ in md.members}) for md in modes]) / max(len(poles) - 1, 1),
                     shapes, length, free, segments,
                     errors=replicates is not None, shape_std=shape_se, spectrum=(records, dt),
-                    coherence=np.array(fits, float))
+                    coherence=np.array(fits, float), edges=edges)
     if free and decay:  # each mode above the sensor noise of a record that does decay (a trace labelled
         # impulse whose response goes on, e.g. under an unmeasured force, fits no free response: not screened)
         verdict = decay_snr.screen(records, dt, omega, zeta, verdict, incoherent)
@@ -300,7 +301,8 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                       [(r["omega"], r["zeta"]) for r in dropped], refine)  # free decays: the poles by ML
     ml, gone = decay_snr.retest(records, dt, ml, rejected) if decay else (ml, [])  # refined poles vs noise
     ml, pairs = decay_pairs.screen(traces, records, dt, ml, dropped, refine) if decay else (ml, [])
-    ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine) if decay else (ml, [])
+    ml, more = decay_search.search(traces, records, dt, ml, rejected + gone + pairs, refine, edges) if decay \
+        else (ml, [])
     rejected += gone + pairs + more  # the pair test: one pole for a broad mode's two; then missed modes
     ml, banded, widened = band_fit.checked(records, dt, ml, [fits[i] if i >= 0 else None for i in np.append(
         source, -1)[ml.source]], length, not (free or ml.details["applied"]), COHERENCE)  # fits: per candidate
@@ -332,7 +334,7 @@ def _identify(traces: Sequence[Trace], known: tuple[periodic.Line, ...], model: 
                  "record_s": length,
                  "rejected": sorted(rejected, key=lambda r: r["omega"]),
                  "harmonics": [ln.entry() for ln in found],
-                 "warnings": left_out + _warnings(free, f_low, length) + band_edges.edge_warnings(records, dt),
+                 "warnings": left_out + short_record_warnings(free, f_low, length) + band_edges.edge_warnings(edges),
                  "stabilisation": _diagram(poles, flags)})), []
 
 
@@ -342,16 +344,6 @@ def _scatter(modes: list[Mode], by_order: dict[int, Poles]) -> tuple[np.ndarray,
               for md in modes]
     spread = np.array([v.std(axis=0) for v in values]).reshape(-1, 2)
     return spread[:, 0], spread[:, 1]
-
-
-def _warnings(decay: bool, f_low: float, length: float) -> list[str]:
-    """What the record cannot support, said once: a stationary record of
-    under 2 periods of ``f_low`` Hz, the lowest frequency that carries 2 %
-    of its power."""
-    if decay or f_low * length >= 2:
-        return []
-    return [f"the record ({length:.4g} s) holds {f_low * length:.2g} periods of {f_low:.4g} Hz, the lowest "
-            f"frequency carrying 2 % of its power: modes there are not supported by it"]
 
 
 def _coherence(U: np.ndarray, rows: int, by_order: dict[int, Poles], modes: list[Mode],

@@ -41,6 +41,8 @@ leaves to the other tests.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal.windows import blackmanharris
@@ -80,6 +82,11 @@ def _range_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     return out
 
 
+def _at(lines: np.ndarray, share: float, rounding: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """The line indices ``rounding(lines share)`` (int)."""
+    return rounding(lines * share).astype(int)
+
+
 def band(records: list[np.ndarray], dt: float) -> tuple[float, float, float, float]:
     """The band ``(low, high)`` rad/s the records (m, n_i) sampled at ``dt`` s
     hold (module docstring; 0 and the Nyquist frequency where no edge is
@@ -97,10 +104,10 @@ def band(records: list[np.ndarray], dt: float) -> tuple[float, float, float, flo
         inside = np.floor(wide * (1 + 2 * scale)) < logs.size
         upper = wide[inside]  # edges whose stopband is as wide as their window
         lower = wide[inside & (wide * (1 - 2 * scale) >= SMOOTH)]
-        up = _range_min(logs, np.ceil(upper * (1 - 2 * scale)).astype(int),
-                        np.floor(upper * (1 - scale)).astype(int)) - above[np.ceil(upper * (1 + scale)).astype(int)]
-        down = _range_min(logs, np.ceil(lower * (1 + scale)).astype(int),
-                          np.floor(lower * (1 + 2 * scale)).astype(int)) - below[np.floor(lower * (1 - scale)).astype(int)]
+        up = _range_min(logs, _at(upper, 1 - 2 * scale, np.ceil), _at(upper, 1 - scale, np.floor)) \
+            - above[_at(upper, 1 + scale, np.ceil)]
+        down = _range_min(logs, _at(lower, 1 + scale, np.ceil), _at(lower, 1 + 2 * scale, np.floor)) \
+            - below[_at(lower, 1 - scale, np.floor)]
         fall_high, fall_low = max(fall_high, up.max(initial=-np.inf)), max(fall_low, down.max(initial=-np.inf))
         if np.any(up >= CLIFF):
             high = max(high, float(upper[up >= CLIFF].max() * (1 - scale)))
@@ -125,11 +132,11 @@ def at_edges(edges: tuple[float, float, float, float], omega: np.ndarray, zeta: 
             "a filter, whose poles are not told from modes)" if down else "" for up, down in zip(upper, lower)]
 
 
-def edge_warnings(records: list[np.ndarray], dt: float) -> list[str]:
-    """What the band of records (m, n_i) sampled at ``dt`` s leaves out, said once: each edge found."""
-    low, high, fall_low, fall_high = band(records, dt)
+def edge_warnings(edges: tuple[float, float, float, float]) -> list[str]:
+    """What a record's band, ``edges`` as :func:`band` returns them, leaves out, said once: each edge found."""
+    low, high, fall_low, fall_high = edges
     ends = [(f"starts at {low:.4g}", fall_low)] if fall_low >= CLIFF else []
     ends += [(f"ends at {high:.4g}", fall_high)] if fall_high >= CLIFF else []
-    return [f"the record's band {where} rad/s (its spectrum falls {fall:.3g} decades there: a filter or resampling); "
-            f"modes within {MARGIN * 100:g} % of that edge or past it are not told from the filter's poles and not reported"
-            for where, fall in ends]
+    return [f"the record's band {where} rad/s (its spectrum falls {fall:.3g} decades there: a filter or "
+            f"resampling); modes within {MARGIN * 100:g} % of that edge or past it are not told from the filter's "
+            "poles and not reported" for where, fall in ends]

@@ -129,12 +129,14 @@ def _fit(records: Sequence[np.ndarray], starts: Sequence[int], dt: float, poles:
 
 
 def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml: PoleRefinement,
-           rejected: Sequence[dict], refine: str) -> tuple[PoleRefinement, list[dict]]:
+           rejected: Sequence[dict], refine: str, edges: tuple[float, float, float, float] | None = None
+           ) -> tuple[PoleRefinement, list[dict]]:
     """``ml`` (:mod:`.refine`, after :mod:`.decay_pairs`) with the modes the
     residual search adds (module docstring; ``rejected`` the
     ``details.rejected`` entries: nuisance poles where the refinement was not
     applied, fitted beside the matched filter's); their p-values in
-    ``details["ml_refinement"]["search"]``; and the ``details.rejected``
+    ``details["ml_refinement"]["search"]``; ``edges``: the records' band
+    (:func:`.band_edges.band`, computed when None); and the ``details.rejected``
     entries of the modes the pair test drops afterwards. Unchanged with
     ``refine="off"`` or when a trace is no free decay."""
     starts = free_starts(traces, records)
@@ -143,7 +145,7 @@ def search(traces: Sequence[Trace], records: Sequence[np.ndarray], dt: float, ml
     length = max(y.shape[1] for y in records) * dt
     nuisance = ml.nuisance if ml.details.get("applied") else np.zeros(0, complex)
     added: list[dict] = []
-    edges = band_edges.band(list(records), dt)
+    edges = band_edges.band(list(records), dt) if edges is None else edges
     for _ in range(MAX_ADDED):
         modelled = ml.modelled
         poles = complex_poles(ml.omega[modelled], ml.zeta[modelled])

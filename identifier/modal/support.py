@@ -231,7 +231,7 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
           missed: np.ndarray, support: np.ndarray, stable: np.ndarray, shapes: np.ndarray, length: float,
           decay: bool, groups: int, errors: bool = True, shape_std: np.ndarray | None = None,
           spectrum: tuple[list[np.ndarray], float] | None = None,
-          coherence: np.ndarray | None = None) -> Verdict:
+          coherence: np.ndarray | None = None, edges: tuple[float, float, float, float] | None = None) -> Verdict:
     """The verdict on candidate modes (k,): ``omega`` rad/s, ``zeta``, their
     standard errors (bias included), ``missed`` (jackknife replicates that did
     not find each), ``support`` (stable poles), ``stable`` (share of the
@@ -245,8 +245,9 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
     the spectral-peak test (stationary records only) and the duplicate
     rule's MAC in unit-RMS channels as well as physical units;
     ``coherence`` (k,): each candidate's temporal coherence (none: not
-    tested against ``COHERENT``). Tests and thresholds in the module
-    docstring."""
+    tested against ``COHERENT``); ``edges``: the records' band
+    (:func:`identifier.modal.band_edges.band`, none: not tested). Tests and
+    thresholds in the module docstring."""
     k = omega.size
     reasons = [""] * k
     periods = omega * length / (2 * np.pi)
@@ -271,8 +272,8 @@ def judge(omega: np.ndarray, zeta: np.ndarray, omega_std: np.ndarray, zeta_std: 
         elif errors and zeta[i] + UNDAMPED * zeta_std[i] < 0:
             reasons[i] = (f"damping ratio {zeta[i]:.3g} below zero by over {UNDAMPED:g} standard errors "
                           f"({zeta_std[i]:.2g}): a growing pole, no mode of a passive structure")
-    if spectrum is not None:
-        reasons = [r or edge for r, edge in zip(reasons, band_edges.at_edges(band_edges.band(*spectrum), omega, zeta))]
+    if edges is not None:
+        reasons = [r or edge for r, edge in zip(reasons, band_edges.at_edges(edges, omega, zeta))]
     scaled = peak_pairs.unit_scaled(spectrum[0], shapes) if spectrum is not None else shapes
     shape_mac = np.maximum(mac(shapes, shapes), mac(scaled, scaled)) if k > 1 else np.zeros((k, k))
     if spectrum is not None and not decay:

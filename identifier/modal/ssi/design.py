@@ -131,3 +131,13 @@ def block_sizes(samples: int, m: int, references: int, row_channels: int, max_or
         columns = max(1, min(columns, (longest - 1) * row_channels // (row_channels + references)))
         rows = max(2, longest - columns)
     return int(rows), int(columns)
+
+
+def short_record_warnings(decay: bool, f_low: float, length: float) -> list[str]:
+    """What the record cannot support, said once: a stationary record of
+    under 2 periods of ``f_low`` Hz, the lowest frequency that carries 2 %
+    of its power."""
+    if decay or f_low * length >= 2:
+        return []
+    return [f"the record ({length:.4g} s) holds {f_low * length:.2g} periods of {f_low:.4g} Hz, the lowest "
+            f"frequency carrying 2 % of its power: modes there are not supported by it"]
