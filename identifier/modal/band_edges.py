@@ -47,7 +47,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal.windows import blackmanharris
 
-from .runtime import rfft
+from .peak_test import scaled_transforms
 
 CLIFF = 3.0  # decades the level falls across an edge
 SCALES = (0.1, 0.05, 0.025)  # half-gaps A of an edge, shares of its frequency
@@ -58,13 +58,8 @@ MARGIN = 0.1  # a candidate's half-power band within this share of an edge: not 
 
 def spectrum(records: list[np.ndarray]) -> np.ndarray:
     """``S`` (n // 2 + 1,) of the module docstring for records (m, n_i)."""
-    n = min(y.shape[1] for y in records)
-    taper = blackmanharris(n)
-    total = np.zeros(n // 2 + 1)
-    for y in records:
-        y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
-        rms = y.std(axis=1)
-        total += (np.abs(rfft(y / np.where(rms > 0, rms, 1.0)[:, None] * taper, axis=1)) ** 2).sum(axis=0)
+    taper = blackmanharris(min(y.shape[1] for y in records))
+    total = sum((np.abs(Y) ** 2).sum(axis=0) for Y in scaled_transforms(records, taper))
     return uniform_filter1d(total, SMOOTH, mode="nearest")
 
 

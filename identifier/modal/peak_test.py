@@ -126,20 +126,22 @@ def whittle(P: np.ndarray, X: np.ndarray, lines: int, start: np.ndarray | None =
     return best, best_a / scale
 
 
-def _scaled_transforms(records: list[np.ndarray]) -> Iterator[np.ndarray]:
+def scaled_transforms(records: list[np.ndarray], taper: np.ndarray | None = None) -> Iterator[np.ndarray]:
     """Per record (m, n_i), the real FFT (m, n // 2 + 1) of its channels cut
-    to the shortest record's ``n`` samples, mean removed, scaled to unit RMS."""
+    to the shortest record's ``n`` samples, mean removed, scaled to unit RMS
+    and, with ``taper`` (n,), multiplied by it."""
     n = min(y.shape[1] for y in records)
     for y in records:
         y = y[:, :n] - y[:, :n].mean(axis=1, keepdims=True)
         rms = y.std(axis=1)
-        yield rfft(y / np.where(rms > 0, rms, 1.0)[:, None], axis=1)
+        y = y / np.where(rms > 0, rms, 1.0)[:, None]
+        yield rfft(y if taper is None else y * taper, axis=1)
 
 
 def channel_periodograms(records: list[np.ndarray]) -> np.ndarray:
     """Each channel's periodogram (m, n // 2 + 1): records (m, n_i) cut to
     the shortest, channels scaled to unit RMS, added over the records."""
-    return sum(np.abs(Y) ** 2 for Y in _scaled_transforms(records))
+    return sum(np.abs(Y) ** 2 for Y in scaled_transforms(records))
 
 
 def summed_periodogram(records: list[np.ndarray]) -> np.ndarray:
@@ -154,7 +156,7 @@ def projected_periodogram(records: list[np.ndarray], weights: np.ndarray) -> np.
     the shortest: ``Y_k`` (m,) the transforms of the channels scaled to unit
     RMS (as :func:`summed_periodogram`), ``w`` = ``weights`` (m,) complex,
     in the scaled channels."""
-    return sum(np.abs(weights.conj() @ Y) ** 2 for Y in _scaled_transforms(records))
+    return sum(np.abs(weights.conj() @ Y) ** 2 for Y in scaled_transforms(records))
 
 
 def spectrum(records: list[np.ndarray], dt: float, summed: np.ndarray | None = None

@@ -63,7 +63,6 @@ class Subspace:
         LiK = la.solve_triangular(L, self.shift[:n, :n], lower=True, check_finite=False)
         return L, la.solve_triangular(L, LiK.T, lower=True, check_finite=False).T
 
-
     @cached_property
     def orders(self) -> int:
         """The highest model order ``n`` whose ``G_n`` is positive definite: every order of the basis
